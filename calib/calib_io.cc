@@ -1,0 +1,160 @@
+#include "calib/calib_io.h"
+
+#include <toml++/toml.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace mm {
+namespace {
+
+[[noreturn]] void Fail(const std::string& source, const toml::source_region* where,
+                       const std::string& field, const std::string& what) {
+  std::string msg = source;
+  if (where != nullptr && where->begin.line > 0) msg += ":" + std::to_string(where->begin.line);
+  msg += ": field '" + field + "': " + what;
+  throw CalibrationError(msg);
+}
+
+// Reads an array of numbers of one of the allowed lengths.
+std::vector<double> ReadNumbers(const toml::table& table, const std::string& source,
+                                const std::string& prefix, const char* key,
+                                std::initializer_list<size_t> lengths, bool required) {
+  const std::string field = prefix + key;
+  const toml::node* node = table.get(key);
+  if (node == nullptr) {
+    if (required) Fail(source, &table.source(), field, "missing");
+    return {};
+  }
+  const toml::array* arr = node->as_array();
+  if (arr == nullptr) Fail(source, &node->source(), field, "expected an array of numbers");
+  std::vector<double> values;
+  for (const toml::node& element : *arr) {
+    const auto v = element.value<double>();
+    if (!v) Fail(source, &element.source(), field, "expected a number");
+    values.push_back(*v);
+  }
+  bool ok = false;
+  std::string allowed;
+  for (size_t n : lengths) {
+    ok = ok || values.size() == n;
+    allowed += (allowed.empty() ? "" : " or ") + std::to_string(n);
+  }
+  if (!ok) {
+    Fail(source, &node->source(), field,
+         "expected " + allowed + " values, got " + std::to_string(values.size()));
+  }
+  return values;
+}
+
+double ReadNumber(const toml::table& table, const std::string& source, const std::string& prefix,
+                  const char* key, double fallback) {
+  const toml::node* node = table.get(key);
+  if (node == nullptr) return fallback;
+  const auto v = node->value<double>();
+  if (!v) Fail(source, &node->source(), prefix + key, "expected a number");
+  return *v;
+}
+
+std::array<double, 5> ToKc(const std::vector<double>& v) {
+  std::array<double, 5> kc{};
+  for (size_t i = 0; i < v.size() && i < 5; ++i) kc[i] = v[i];
+  return kc;
+}
+
+std::string Num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  std::string s(buf);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+}  // namespace
+
+BouguetCamera ParseCalibrationToml(const std::string& text, const std::string& source_name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, source_name);
+  } catch (const toml::parse_error& e) {
+    throw CalibrationError(source_name + ":" + std::to_string(e.source().begin.line) +
+                           ": not valid TOML: " + std::string(e.description()));
+  }
+  const toml::table* cam = root["camera"].as_table();
+  if (cam == nullptr) Fail(source_name, nullptr, "camera", "missing [camera] table");
+
+  BouguetCamera camera;
+  const std::string p = "camera.";
+  const auto size = ReadNumbers(*cam, source_name, p, "image_size", {2}, true);
+  const auto fc = ReadNumbers(*cam, source_name, p, "fc", {2}, true);
+  const auto cc = ReadNumbers(*cam, source_name, p, "cc", {2}, true);
+  const auto kc = ReadNumbers(*cam, source_name, p, "kc", {4, 5}, true);
+  camera.width = static_cast<int>(size[0]);
+  camera.height = static_cast<int>(size[1]);
+  if (size[0] != camera.width || size[1] != camera.height || camera.width <= 0 ||
+      camera.height <= 0) {
+    Fail(source_name, &cam->get("image_size")->source(), p + "image_size",
+         "expected two positive integers");
+  }
+  camera.fc = {fc[0], fc[1]};
+  camera.cc = {cc[0], cc[1]};
+  camera.kc = ToKc(kc);
+  camera.alpha_c = ReadNumber(*cam, source_name, p, "alpha_c", 0.0);
+
+  if (const toml::table* err = (*cam)["error"].as_table()) {
+    const std::string pe = p + "error.";
+    BouguetCamera::Uncertainty u;
+    const auto efc = ReadNumbers(*err, source_name, pe, "fc", {2}, true);
+    const auto ecc = ReadNumbers(*err, source_name, pe, "cc", {2}, true);
+    const auto ekc = ReadNumbers(*err, source_name, pe, "kc", {4, 5}, true);
+    u.fc = {efc[0], efc[1]};
+    u.cc = {ecc[0], ecc[1]};
+    u.kc = ToKc(ekc);
+    u.alpha_c = ReadNumber(*err, source_name, pe, "alpha_c", 0.0);
+    camera.error = u;
+  }
+
+  if (const std::string problem = camera.Check(); !problem.empty()) {
+    const std::string field = problem.substr(0, problem.find(':'));
+    const toml::node* node = cam->get(field);
+    Fail(source_name, node ? &node->source() : nullptr, p + field,
+         problem.substr(problem.find(':') + 2));
+  }
+  return camera;
+}
+
+BouguetCamera LoadCalibration(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw CalibrationError(path.string() + ": cannot open calibration file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseCalibrationToml(text.str(), path.string());
+}
+
+std::string FormatCalibrationToml(const BouguetCamera& c) {
+  std::ostringstream out;
+  auto vec = [](std::initializer_list<double> v) {
+    std::string s = "[";
+    for (double x : v) s += (s.size() > 1 ? ", " : "") + Num(x);
+    return s + "]";
+  };
+  out << "# monomesh calibration, Bouguet parameterization (see docs/calibration.md)\n"
+      << "[camera]\n"
+      << "image_size = [" << c.width << ", " << c.height << "]\n"
+      << "fc = " << vec({c.fc.x(), c.fc.y()}) << "\n"
+      << "cc = " << vec({c.cc.x(), c.cc.y()}) << "\n"
+      << "alpha_c = " << Num(c.alpha_c) << "\n"
+      << "kc = " << vec({c.kc[0], c.kc[1], c.kc[2], c.kc[3], c.kc[4]}) << "\n";
+  if (c.error) {
+    const auto& e = *c.error;
+    out << "\n[camera.error]  # 3-sigma uncertainties\n"
+        << "fc = " << vec({e.fc.x(), e.fc.y()}) << "\n"
+        << "cc = " << vec({e.cc.x(), e.cc.y()}) << "\n"
+        << "alpha_c = " << Num(e.alpha_c) << "\n"
+        << "kc = " << vec({e.kc[0], e.kc[1], e.kc[2], e.kc[3], e.kc[4]}) << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace mm

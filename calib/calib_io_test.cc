@@ -1,0 +1,78 @@
+#include "calib/calib_io.h"
+
+#include <gtest/gtest.h>
+
+namespace mm {
+namespace {
+
+void ExpectErrorMentions(const std::string& text, const std::string& needle) {
+  try {
+    ParseCalibrationToml(text, "cam.toml");
+    FAIL() << "expected CalibrationError for: " << text;
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cam.toml"), std::string::npos) << e.what();
+  }
+}
+
+constexpr const char* kGood = R"([camera]
+image_size = [640, 480]
+fc = [535.4, 539.2]
+cc = [320.1, 247.6]
+alpha_c = 0.001
+kc = [0.1, -0.2, 0.001, 0.002]
+)";
+
+TEST(CalibIo, ParsesStoredFormatWithFourKc) {
+  const BouguetCamera c = ParseCalibrationToml(kGood, "cam.toml");
+  EXPECT_EQ(c.width, 640);
+  EXPECT_DOUBLE_EQ(c.fc.y(), 539.2);
+  EXPECT_DOUBLE_EQ(c.alpha_c, 0.001);
+  EXPECT_DOUBLE_EQ(c.kc[3], 0.002);
+  EXPECT_DOUBLE_EQ(c.kc[4], 0.0);
+  EXPECT_FALSE(c.error.has_value());
+}
+
+TEST(CalibIo, RoundTripsExactly) {
+  BouguetCamera c = ParseCalibrationToml(kGood, "cam.toml");
+  c.fc.x() = 657.46329871743;
+  BouguetCamera::Uncertainty e;
+  e.fc = {0.31, 0.33};
+  e.kc = {0.01, 0.02, 0.001, 0.001, 0};
+  c.error = e;
+  const BouguetCamera back = ParseCalibrationToml(FormatCalibrationToml(c), "x");
+  EXPECT_EQ(back.fc, c.fc);
+  EXPECT_EQ(back.cc, c.cc);
+  EXPECT_EQ(back.kc, c.kc);
+  EXPECT_EQ(back.alpha_c, c.alpha_c);
+  ASSERT_TRUE(back.error.has_value());
+  EXPECT_EQ(back.error->fc, e.fc);
+  EXPECT_EQ(back.error->kc, e.kc);
+}
+
+TEST(CalibIo, ErrorsNameTheField) {
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\ncc=[1,2]\nkc=[0,0,0,0]\n", "camera.fc");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[1,2,3]\ncc=[1,2]\nkc=[0,0,0,0]\n",
+                      "expected 2 values, got 3");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[-5,2]\ncc=[1,2]\nkc=[0,0,0,0]\n",
+                      "camera.fc");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[nan,2]\ncc=[1,2]\nkc=[0,0,0,0]\n",
+                      "camera.fc");
+  ExpectErrorMentions("[camera]\nfc=[1,2]\ncc=[1,2]\nkc=[0,0,0,0]\n", "camera.image_size");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[1,2]\ncc=[1,2]\nkc=[0,0]\n",
+                      "camera.kc");
+  ExpectErrorMentions("fc = [", "not valid TOML");
+  ExpectErrorMentions("[other]\n", "[camera]");
+}
+
+TEST(CalibIo, MissingFileNamesPath) {
+  try {
+    LoadCalibration("/nonexistent/calib.toml");
+    FAIL();
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/calib.toml"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,66 @@
+#pragma once
+// The Bouguet camera model (Caltech Camera Calibration Toolbox for Matlab, J.-Y. Bouguet):
+//   x_n = [X/Z, Y/Z],  r^2 = |x_n|^2
+//   x_d = (1 + kc1 r^2 + kc2 r^4 + kc5 r^6) x_n + dx
+//   dx  = [2 kc3 x y + kc4 (r^2 + 2 x^2),  kc3 (r^2 + 2 y^2) + 2 kc4 x y]
+//   u   = fc1 (x_d1 + alpha_c x_d2) + cc1,   v = fc2 x_d2 + cc2
+// so KK = [fc1 alpha_c*fc1 cc1; 0 fc2 cc2; 0 0 1]. Pixel (0,0) is the centre of the top-left
+// pixel (the toolbox's 1-based cc is stored 0-based, as OpenCV does).
+//
+// Thread-safety: a value type; const methods are reentrant.
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+
+namespace mm {
+
+/// Intrinsics in the toolbox's parameterization, plus the image size they belong to.
+struct BouguetCamera {
+  Eigen::Vector2d fc{1.0, 1.0};        ///< Focal lengths, pixels.
+  Eigen::Vector2d cc{0.0, 0.0};        ///< Principal point, pixels (0-based).
+  double alpha_c = 0.0;                ///< Skew coefficient (angle between axes).
+  std::array<double, 5> kc{};          ///< [k1 k2 p1 p2 k3] as in the toolbox.
+  int width = 0;                       ///< Image width, pixels (0 = unknown).
+  int height = 0;                      ///< Image height, pixels (0 = unknown).
+
+  /// Optional 3-sigma uncertainties as reported by the toolbox (fc_error ...).
+  struct Uncertainty {
+    Eigen::Vector2d fc{0, 0};
+    Eigen::Vector2d cc{0, 0};
+    double alpha_c = 0.0;
+    std::array<double, 5> kc{};
+  };
+  std::optional<Uncertainty> error;
+
+  /// KK = [fc1 alpha_c*fc1 cc1; 0 fc2 cc2; 0 0 1].
+  [[nodiscard]] Eigen::Matrix3d K() const;
+  /// True when any distortion coefficient is non-zero.
+  [[nodiscard]] bool HasDistortion() const;
+
+  /// Applies the distortion to a normalized point (x_n -> x_d).
+  [[nodiscard]] Eigen::Vector2d Distort(const Eigen::Vector2d& x_n) const;
+  /// Distortion with its 2x2 Jacobian d x_d / d x_n.
+  [[nodiscard]] Eigen::Vector2d Distort(const Eigen::Vector2d& x_n, Eigen::Matrix2d* jacobian) const;
+  /// Inverts the distortion by Gauss-Newton on Distort(x_n) = x_d (converges to 1e-12 in a few
+  /// iterations for calibrated lenses; the toolbox's comp_distortion_oulu uses fixed-point).
+  [[nodiscard]] Eigen::Vector2d Undistort(const Eigen::Vector2d& x_d) const;
+
+  /// Pixel of a point in the camera frame (Z > 0 expected).
+  [[nodiscard]] Eigen::Vector2d Project(const Eigen::Vector3d& point_in_cam) const;
+  /// Normalized, undistorted image coordinates [X/Z, Y/Z] of a (distorted) pixel.
+  [[nodiscard]] Eigen::Vector2d Unproject(const Eigen::Vector2d& pixel) const;
+
+  /// Pixel <-> distorted normalized coordinates through KK (skew included).
+  [[nodiscard]] Eigen::Vector2d PixelFromDistorted(const Eigen::Vector2d& x_d) const;
+  [[nodiscard]] Eigen::Vector2d DistortedFromPixel(const Eigen::Vector2d& pixel) const;
+
+  /// The same camera without distortion (what an undistorted frame is seen through).
+  [[nodiscard]] BouguetCamera Undistorted() const;
+
+  /// Empty when valid, otherwise a message naming the bad field.
+  [[nodiscard]] std::string Check() const;
+};
+
+}  // namespace mm

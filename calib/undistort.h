@@ -1,0 +1,33 @@
+#pragma once
+// Whole-frame undistortion with precomputed fixed-point remap tables built from the Bouguet
+// model (skew included; cv::initUndistortRectifyMap ignores KK(0,1), so the maps are built here
+// and packed by cv::convertMaps into OpenCV's 16.5 fixed-point format).
+//
+// Thread-safety: immutable after construction; Apply() is reentrant.
+
+#include <opencv2/core.hpp>
+
+#include "calib/camera_model.h"
+
+namespace mm {
+
+class Undistorter {
+ public:
+  /// Maps from `camera` (distorted) to `camera.Undistorted()` at the calibrated image size.
+  explicit Undistorter(const BouguetCamera& camera);
+
+  /// Undistorts a gray or colour frame of the calibrated size. Without distortion the frame is
+  /// returned as is (no copy).
+  [[nodiscard]] cv::Mat Apply(const cv::Mat& distorted) const;
+
+  /// The camera an undistorted frame is seen through.
+  [[nodiscard]] const BouguetCamera& output_camera() const { return output_; }
+
+ private:
+  BouguetCamera input_;
+  BouguetCamera output_;
+  cv::Mat map_xy_;    // CV_16SC2 integer part.
+  cv::Mat map_frac_;  // CV_16UC1 fractional table index.
+};
+
+}  // namespace mm

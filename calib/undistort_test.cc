@@ -1,0 +1,58 @@
+#include "calib/undistort.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+namespace mm {
+namespace {
+
+TEST(Undistorter, IdentityWithoutDistortion) {
+  BouguetCamera c;
+  c.fc = {500, 500};
+  c.cc = {160, 120};
+  c.width = 320;
+  c.height = 240;
+  const Undistorter u(c);
+  cv::Mat frame(240, 320, CV_8UC1, cv::Scalar(7));
+  EXPECT_EQ(u.Apply(frame).data, frame.data);
+}
+
+// A dot drawn where the distorted camera sees a 3-D point lands, after undistortion, where
+// the undistorted camera sees it (checks the map direction, skew and distortion together).
+TEST(Undistorter, MovesPointsToUndistortedProjection) {
+  BouguetCamera c;
+  c.fc = {400, 410};
+  c.cc = {319.5, 239.5};
+  c.alpha_c = 0.01;
+  c.kc = {-0.3, 0.1, 0.001, -0.001, 0};
+  c.width = 640;
+  c.height = 480;
+  const Undistorter u(c);
+  const Eigen::Vector3d point(0.45, -0.3, 1.0);
+  const Eigen::Vector2d distorted = c.Project(point);
+  const Eigen::Vector2d expected = c.Undistorted().Project(point);
+  cv::Mat frame(480, 640, CV_8UC1, cv::Scalar(0));
+  cv::circle(frame, cv::Point(static_cast<int>(std::lround(distorted.x())),
+                              static_cast<int>(std::lround(distorted.y()))),
+             3, cv::Scalar(255), cv::FILLED);
+  const cv::Mat out = u.Apply(frame);
+  const cv::Moments m = cv::moments(out, false);
+  ASSERT_GT(m.m00, 0);
+  const Eigen::Vector2d centroid(m.m10 / m.m00, m.m01 / m.m00);
+  EXPECT_LT((centroid - expected).norm(), 1.0) << centroid.transpose() << " vs "
+                                               << expected.transpose();
+}
+
+TEST(Undistorter, RejectsWrongFrameSize) {
+  BouguetCamera c;
+  c.fc = {500, 500};
+  c.width = 320;
+  c.height = 240;
+  c.kc[0] = 0.1;
+  const Undistorter u(c);
+  EXPECT_THROW(u.Apply(cv::Mat(100, 100, CV_8UC1)), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,44 @@
+#pragma once
+// The virtual camera of the tests and the demo: plays a TUM-format folder (a `timestamp path`
+// list, rgb.txt by default) at its recorded rate, scaled by `speed`, or as fast as possible.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "capture/frame.h"
+#include "dataset/tum.h"
+
+namespace mm {
+
+struct ReplayOptions {
+  std::string list = "rgb.txt";  ///< The list file inside the folder.
+  bool realtime = true;          ///< Pace by the recorded timestamps; false: as fast as possible.
+  double speed = 1.0;            ///< Playback speed factor when realtime (> 0).
+  bool loop = false;             ///< Start again after the last frame instead of ending.
+  bool gray = false;             ///< Deliver GRAY8 instead of BGR8.
+
+  /// Empty when valid, else a message naming the bad option.
+  [[nodiscard]] std::string Check() const;
+};
+
+class ReplaySource final : public FrameSource {
+ public:
+  ReplaySource(std::filesystem::path folder, ReplayOptions options);
+
+  std::string Open() override;
+  ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout, std::string* error) override;
+  void Close() override;
+  [[nodiscard]] std::string Describe() const override;
+
+ private:
+  std::filesystem::path folder_;
+  ReplayOptions options_;
+  std::vector<TumFrame> frames_;
+  size_t next_ = 0;
+  uint64_t sequence_ = 0;
+  int64_t start_ns_ = 0;        // Wall time of frame 0 of the current pass.
+  double pass_offset_s_ = 0.0;  // Dataset time added per completed loop pass.
+};
+
+}  // namespace mm

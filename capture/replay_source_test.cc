@@ -1,0 +1,148 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "capture/capture_thread.h"
+#include "capture/replay_source.h"
+#include "capture/source_uri.h"
+
+namespace mm {
+namespace {
+
+using namespace std::chrono_literals;
+
+// A TUM-style folder of `n` 32x24 frames whose pixel value is the frame index, 50 ms apart.
+std::filesystem::path MakeDataset(const std::string& name, int n) {
+  const auto dir = std::filesystem::temp_directory_path() / ("mm_replay_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "rgb");
+  std::ofstream list(dir / "rgb.txt");
+  list << "# timestamp filename\n";
+  for (int i = 0; i < n; ++i) {
+    const std::string file = "rgb/" + std::to_string(i) + ".png";
+    cv::imwrite((dir / file).string(), cv::Mat(24, 32, CV_8UC3, cv::Scalar(i, i, i)));
+    list << 100.0 + 0.05 * i << " " << file << "\n";
+  }
+  return dir;
+}
+
+TEST(ReplaySource, DeliversFramesInOrderThenEnds) {
+  const auto dir = MakeDataset("order", 4);
+  ReplayOptions options;
+  options.realtime = false;
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  for (int i = 0; i < 4; ++i) {
+    Frame frame;
+    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
+    EXPECT_EQ(frame.sequence, static_cast<uint64_t>(i));
+    EXPECT_EQ(frame.image.at<cv::Vec3b>(0, 0)[0], i);
+    EXPECT_NEAR(frame.source_time_s, 100.0 + 0.05 * i, 1e-9);
+  }
+  Frame frame;
+  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kEndOfStream);
+}
+
+TEST(ReplaySource, LoopsWithIncreasingSequence) {
+  const auto dir = MakeDataset("loop", 2);
+  ReplayOptions options;
+  options.realtime = false;
+  options.loop = true;
+  options.gray = true;
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  for (int i = 0; i < 5; ++i) {
+    Frame frame;
+    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame);
+    EXPECT_EQ(frame.sequence, static_cast<uint64_t>(i));
+    EXPECT_EQ(frame.image.type(), CV_8UC1);
+    EXPECT_EQ(frame.image.at<uint8_t>(0, 0), i % 2);
+  }
+}
+
+TEST(ReplaySource, RealtimeNeverDeliversEarly) {
+  const auto dir = MakeDataset("realtime", 5);
+  ReplayOptions options;
+  options.speed = 2.0;  // 0.2 s of dataset time -> at least 0.1 s.
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  const int64_t start = MonotonicNowNs();
+  std::string error;
+  int frames = 0;
+  while (frames < 5) {
+    Frame frame;
+    const ReadStatus s = source.Read(&frame, 20ms, &error);
+    if (s == ReadStatus::kFrame) ++frames;
+    ASSERT_NE(s, ReadStatus::kError) << error;
+  }
+  EXPECT_GE(MonotonicNowNs() - start, 100'000'000);
+}
+
+TEST(ReplaySource, CorruptImageIsAnErrorNamingTheFileAndIsSkipped) {
+  const auto dir = MakeDataset("corrupt", 3);
+  std::ofstream(dir / "rgb/1.png") << "not a png";
+  ReplayOptions options;
+  options.realtime = false;
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  Frame frame;
+  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame);
+  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kError);
+  EXPECT_NE(error.find("rgb/1.png"), std::string::npos) << error;
+  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame);
+  EXPECT_EQ(frame.image.at<cv::Vec3b>(0, 0)[0], 2);
+}
+
+TEST(ReplaySource, MissingListIsAnOpenErrorNamingThePath) {
+  ReplaySource source("/nonexistent/dataset", ReplayOptions{});
+  const std::string error = source.Open();
+  EXPECT_NE(error.find("/nonexistent/dataset/rgb.txt"), std::string::npos) << error;
+}
+
+TEST(SourceUri, ParsesReplayAndRejectsBadParameters) {
+  EXPECT_NE(CreateFrameSource("replay:data/x?rate=max&loop=1", "/base"), nullptr);
+  EXPECT_NE(CreateFrameSource("replay:data/x?rate=max", "/base")->Describe().find("/base/data/x"),
+            std::string::npos);
+  EXPECT_THROW(CreateFrameSource("replay:x?rate=fast"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("replay:x?bogus=1"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("replay:x?speed=-1"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("nocolon"), SourceUriError);
+  try {
+    CreateFrameSource("tape:/dev/st0");
+    FAIL();
+  } catch (const SourceUriError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown scheme 'tape'"), std::string::npos);
+  }
+}
+
+TEST(CaptureThread, PublishesNewestFrameAndCountsDrops) {
+  const auto dir = MakeDataset("thread", 20);
+  ReplayOptions options;
+  options.realtime = false;
+  std::atomic<int> published{0};
+  CaptureThread capture(std::make_unique<ReplaySource>(dir, options),
+                        {.on_frame = [&] { ++published; }, .on_error = nullptr});
+  ASSERT_EQ(capture.Start(), "");
+  const FramePtr first = capture.WaitNewer(-1, 2s);
+  ASSERT_NE(first, nullptr);
+  // Nobody consumes: the source runs to its end; all but the frames taken are drops.
+  for (int i = 0; i < 200 && !capture.stats().end_of_stream; ++i) std::this_thread::sleep_for(5ms);
+  const CaptureStats stats = capture.stats();
+  EXPECT_TRUE(stats.end_of_stream);
+  EXPECT_EQ(stats.frames, 20u);
+  EXPECT_EQ(published.load(), 20);
+  EXPECT_GE(stats.dropped, 18u);
+  const FramePtr last = capture.Latest();
+  ASSERT_NE(last, nullptr);
+  EXPECT_EQ(last->sequence, 19u);
+  EXPECT_EQ(capture.WaitNewer(19, 50ms), nullptr);
+  capture.Stop();
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,78 @@
+# Helpers shared by every folder: warnings on our own targets, library and test registration,
+# and the layer rule.
+
+set(MM_WARNINGS -Wall -Wextra -Wshadow -Wmissing-declarations -Wnon-virtual-dtor -Wpedantic)
+if(MM_WERROR)
+  list(APPEND MM_WARNINGS -Werror)
+endif()
+# gcc 12 prints ABI notes for CGAL/Eigen on some targets; they are not about our code.
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+  list(APPEND MM_WARNINGS -Wno-psabi)
+endif()
+
+# mm_add_library(NAME SOURCES ... [PUBLIC_LINK ...] [PRIVATE_LINK ...])
+# Headers are included as "<folder>/<file>.h" from the repository root.
+function(mm_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_LINK;PRIVATE_LINK" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_compile_options(${name} PRIVATE ${MM_WARNINGS})
+  target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_LINK} PRIVATE ${ARG_PRIVATE_LINK})
+  set_target_properties(${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# mm_add_executable(NAME SOURCES ... [LINK ...])
+function(mm_add_executable name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LINK" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_compile_options(${name} PRIVATE ${MM_WARNINGS})
+  target_link_libraries(${name} PRIVATE ${ARG_LINK})
+endfunction()
+
+# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...])
+# Registers a GoogleTest binary as the ctest test "<folder>/<name>". A test that needs data it
+# may not find exits 77 and is reported as skipped.
+function(mm_add_test folder name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LINK;LABELS" ${ARGN})
+  set(target ${folder}_${name})
+  add_executable(${target} ${ARG_SOURCES})
+  target_compile_options(${target} PRIVATE ${MM_WARNINGS})
+  target_link_libraries(${target} PRIVATE ${ARG_LINK} GTest::gtest GTest::gtest_main)
+  target_compile_definitions(${target} PRIVATE
+    MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  add_test(NAME ${folder}/${name} COMMAND ${target})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  set(labels unit)
+  if(ARG_LABELS)
+    set(labels ${ARG_LABELS})
+  endif()
+  set_tests_properties(${folder}/${name} PROPERTIES
+    SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}")
+endfunction()
+
+# Collects every target that `target` links, transitively.
+function(_mm_collect_links target out)
+  set(seen ${${out}})
+  get_target_property(links ${target} LINK_LIBRARIES)
+  get_target_property(ilinks ${target} INTERFACE_LINK_LIBRARIES)
+  foreach(l IN LISTS links ilinks)
+    string(REGEX REPLACE "^\\$<LINK_ONLY:(.*)>$" "\\1" l "${l}")
+    if(TARGET ${l} AND NOT l IN_LIST seen)
+      list(APPEND seen ${l})
+      _mm_collect_links(${l} seen)
+    endif()
+  endforeach()
+  set(${out} ${seen} PARENT_SCOPE)
+endfunction()
+
+# mm_forbid_link(A B): configure fails if target A links target B, directly or not.
+function(mm_forbid_link a b)
+  set(all "")
+  _mm_collect_links(${a} all)
+  if(${b} IN_LIST all)
+    message(FATAL_ERROR "Layer rule broken: ${a} links ${b} (see docs/architecture.md)")
+  endif()
+endfunction()

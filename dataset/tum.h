@@ -1,0 +1,68 @@
+#pragma once
+// TUM RGB-D dataset files (Sturm et al., IROS 2012): image lists (`timestamp path`) and
+// ground-truth trajectories (`timestamp tx ty tz qx qy qz qw`, camera-to-world, Hamilton).
+//
+// Thread-safety: pure functions and immutable values; reentrant.
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mm {
+
+/// Thrown when a dataset file cannot be read; the message names the file and line.
+class DatasetError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One line of a TUM image list.
+struct TumFrame {
+  double timestamp_s = 0.0;       ///< Dataset time, seconds.
+  std::filesystem::path path;     ///< Absolute (resolved against the list's folder).
+};
+
+/// Reads a TUM image list (rgb.txt, depth.txt or any `timestamp path` file). Comment lines
+/// start with '#'. Relative paths are resolved against the list's folder.
+/// \throws DatasetError naming file and line on a malformed line or an unreadable file.
+std::vector<TumFrame> ReadTumList(const std::filesystem::path& list_file);
+
+/// A rigid transform world_from_cam (TUM convention) at a time.
+struct TimedPose {
+  double timestamp_s = 0.0;
+  Eigen::Isometry3d world_from_cam = Eigen::Isometry3d::Identity();
+};
+
+/// A ground-truth trajectory, sorted by time, with interpolation.
+class Trajectory {
+ public:
+  /// \throws DatasetError naming file and line.
+  static Trajectory Read(const std::filesystem::path& groundtruth_file);
+  explicit Trajectory(std::vector<TimedPose> poses);
+
+  /// Linear position / SLERP rotation between the bracketing samples. Outside the sampled
+  /// range the nearest sample is returned if it is within `max_extrapolation_s`; otherwise
+  /// nullopt.
+  [[nodiscard]] std::optional<Eigen::Isometry3d> WorldFromCamAt(
+      double timestamp_s, double max_extrapolation_s = 0.1) const;
+
+  [[nodiscard]] const std::vector<TimedPose>& poses() const { return poses_; }
+
+ private:
+  std::vector<TimedPose> poses_;
+};
+
+/// Relative pose of a pair: cam_b_from_cam_a = inv(world_from_b) * world_from_a.
+Eigen::Isometry3d CamBFromCamA(const Eigen::Isometry3d& world_from_a,
+                               const Eigen::Isometry3d& world_from_b);
+
+/// Angle of the rotation R_est^T R_gt, degrees.
+double RotationErrorDeg(const Eigen::Matrix3d& r_est, const Eigen::Matrix3d& r_gt);
+
+/// Angle between two translation directions, degrees (0 when either is zero).
+double DirectionErrorDeg(const Eigen::Vector3d& t_est, const Eigen::Vector3d& t_gt);
+
+}  // namespace mm

@@ -1,0 +1,157 @@
+#include "app/config.h"
+
+#include <toml++/toml.h>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace mm {
+namespace {
+
+// Walks the tables, checks for unknown keys and converts values, naming the key on errors.
+class Reader {
+ public:
+  Reader(const toml::table& root, std::string source) : root_(root), source_(std::move(source)) {}
+
+  [[noreturn]] void Fail(const toml::node* node, const std::string& key, const std::string& what) {
+    std::string msg = source_;
+    if (node != nullptr && node->source().begin.line > 0) {
+      msg += ":" + std::to_string(node->source().begin.line);
+    }
+    throw ConfigError(msg + ": key '" + key + "': " + what);
+  }
+
+  const toml::table* Table(const std::string& name, std::set<std::string> allowed) {
+    known_tables_.insert(name);
+    const toml::node* node = root_.get(name);
+    if (node == nullptr) return nullptr;
+    const toml::table* table = node->as_table();
+    if (table == nullptr) Fail(node, name, "expected a table [" + name + "]");
+    for (const auto& [key, value] : *table) {
+      if (!allowed.contains(std::string(key.str()))) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        Fail(&value, name + "." + std::string(key.str()), "unknown key (known: " + list + ")");
+      }
+    }
+    return table;
+  }
+
+  void CheckTopLevel() {
+    for (const auto& [key, value] : root_) {
+      if (!known_tables_.contains(std::string(key.str()))) {
+        Fail(&value, std::string(key.str()), "unknown table");
+      }
+    }
+  }
+
+  template <typename T>
+  void Get(const toml::table* table, const std::string& tname, const char* key, T* out) {
+    if (table == nullptr) return;
+    const toml::node* node = table->get(key);
+    if (node == nullptr) return;
+    const auto v = node->value<T>();
+    if (!v) Fail(node, tname + "." + key, "wrong type");
+    *out = *v;
+  }
+
+  void GetPath(const toml::table* table, const std::string& tname, const char* key,
+               const std::filesystem::path& base, std::filesystem::path* out) {
+    std::string s;
+    Get(table, tname, key, &s);
+    if (s.empty()) return;
+    const std::filesystem::path p(s);
+    *out = p.is_absolute() ? p : (base / p).lexically_normal();
+  }
+
+  void Require(bool ok, const toml::table* table, const std::string& tname, const char* key,
+               const std::string& what) {
+    if (ok) return;
+    const toml::node* node = table ? table->get(key) : nullptr;
+    Fail(node, tname + "." + key, what);
+  }
+
+ private:
+  const toml::table& root_;
+  std::string source_;
+  std::set<std::string> known_tables_;
+};
+
+}  // namespace
+
+DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::path& path) {
+  toml::table root;
+  try {
+    root = toml::parse(text, path.string());
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(path.string() + ":" + std::to_string(e.source().begin.line) +
+                      ": not valid TOML: " + std::string(e.description()));
+  }
+  DaemonConfig c;
+  c.config_dir = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+  Reader r(root, path.string());
+
+  const auto* camera = r.Table("camera", {"uri", "calibration"});
+  r.Get(camera, "camera", "uri", &c.camera_uri);
+  r.GetPath(camera, "camera", "calibration", c.config_dir, &c.calibration);
+  r.Require(!c.camera_uri.empty(), camera, "camera", "uri", "missing (e.g. \"replay:DIR\")");
+  r.Require(!c.calibration.empty(), camera, "camera", "calibration", "missing");
+
+  const auto* control = r.Table("control", {"socket"});
+  r.GetPath(control, "control", "socket", c.config_dir, &c.control_socket);
+
+  const auto* keyframes = r.Table("keyframes", {"b_after_frames", "timeout_s"});
+  int64_t b_after = c.keyframe_b_after_frames;
+  r.Get(keyframes, "keyframes", "b_after_frames", &b_after);
+  r.Require(b_after >= 1 && b_after <= 10000, keyframes, "keyframes", "b_after_frames",
+            "must be in 1..10000");
+  c.keyframe_b_after_frames = static_cast<int>(b_after);
+  r.Get(keyframes, "keyframes", "timeout_s", &c.keyframe_timeout_s);
+  r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
+
+  const auto* recon = r.Table("recon", {"max_features", "contrast_threshold", "match_ratio",
+                                        "ransac_threshold_px", "min_inliers", "max_depth_ratio"});
+  int64_t max_features = c.recon.sift.max_features;
+  int64_t min_inliers = c.recon.two_view.min_inliers;
+  r.Get(recon, "recon", "max_features", &max_features);
+  r.Get(recon, "recon", "contrast_threshold", &c.recon.sift.contrast_threshold);
+  r.Get(recon, "recon", "match_ratio", &c.recon.match.ratio);
+  r.Get(recon, "recon", "ransac_threshold_px", &c.recon.two_view.ransac_threshold_px);
+  r.Get(recon, "recon", "min_inliers", &min_inliers);
+  r.Get(recon, "recon", "max_depth_ratio", &c.recon.mesh.max_depth_ratio);
+  c.recon.sift.max_features = static_cast<int>(max_features);
+  c.recon.two_view.min_inliers = static_cast<int>(min_inliers);
+  if (const std::string problem = c.recon.Check(); !problem.empty()) {
+    // The option names in Check() messages are the struct's; map the common ones to keys.
+    const std::string field = problem.substr(0, problem.find(':'));
+    const std::string key = field == "ratio" ? "match_ratio" : field;
+    r.Require(false, recon, "recon", key.c_str(), problem.substr(problem.find(':') + 2));
+  }
+
+  const auto* spool = r.Table("spool", {"dir", "max_entries"});
+  r.GetPath(spool, "spool", "dir", c.config_dir, &c.spool_dir);
+  int64_t max_entries = c.spool_max_entries;
+  r.Get(spool, "spool", "max_entries", &max_entries);
+  r.Require(max_entries >= 0, spool, "spool", "max_entries", "must be >= 0");
+  c.spool_max_entries = static_cast<int>(max_entries);
+
+  const auto* log = r.Table("log", {"level"});
+  r.Get(log, "log", "level", &c.log_level);
+  static const std::set<std::string> kLevels{"trace", "debug", "info", "warn", "error"};
+  r.Require(kLevels.contains(c.log_level), log, "log", "level",
+            "must be one of trace, debug, info, warn, error");
+
+  r.CheckTopLevel();
+  return c;
+}
+
+DaemonConfig LoadDaemonConfig(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path.string() + ": cannot open config file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseDaemonConfig(text.str(), path);
+}
+
+}  // namespace mm

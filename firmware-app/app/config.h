@@ -1,0 +1,43 @@
+#pragma once
+// The daemon's configuration: one TOML file (systemd/monomeshd.example.toml documents every
+// key). Unknown keys and bad values are errors that name the key; the daemon exits with
+// EX_CONFIG (78) on them.
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+#include "recon/pipeline.h"
+
+namespace mm {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct DaemonConfig {
+  std::filesystem::path config_dir;   ///< Relative paths below are resolved against this.
+
+  std::string camera_uri;             ///< [camera] uri
+  std::filesystem::path calibration;  ///< [camera] calibration
+
+  std::filesystem::path control_socket = "/run/monomesh/control.sock";  ///< [control] socket
+
+  int keyframe_b_after_frames = 1;    ///< [keyframes] b_after_frames
+  double keyframe_timeout_s = 30.0;   ///< [keyframes] timeout_s
+
+  PairOptions recon;                  ///< [recon] ...
+
+  std::filesystem::path spool_dir = "/var/spool/monomesh";  ///< [spool] dir
+  int spool_max_entries = 200;        ///< [spool] max_entries (0 = keep all)
+
+  std::string log_level = "info";     ///< [log] level: trace|debug|info|warn|error
+};
+
+/// Reads and validates a config file.
+/// \throws ConfigError naming the file, line and key.
+DaemonConfig LoadDaemonConfig(const std::filesystem::path& path);
+DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::path& path);
+
+}  // namespace mm

@@ -1,0 +1,58 @@
+#include "app/config.h"
+
+#include <gtest/gtest.h>
+
+namespace mm {
+namespace {
+
+const std::filesystem::path kExample =
+    std::filesystem::path(MM_SOURCE_DIR) / "systemd/monomeshd.example.toml";
+
+void ExpectError(const std::string& text, const std::string& needle) {
+  try {
+    ParseDaemonConfig(text, "/etc/monomesh/d.toml");
+    FAIL() << "expected ConfigError for:\n" << text;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/etc/monomesh/d.toml"), std::string::npos) << e.what();
+  }
+}
+
+constexpr const char* kMinimal = "[camera]\nuri = \"replay:data\"\ncalibration = \"c.toml\"\n";
+
+TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
+  const DaemonConfig c = LoadDaemonConfig(kExample);
+  const DaemonConfig defaults = ParseDaemonConfig(kMinimal, "/x/d.toml");
+  EXPECT_EQ(c.keyframe_b_after_frames, defaults.keyframe_b_after_frames);
+  EXPECT_EQ(c.keyframe_timeout_s, defaults.keyframe_timeout_s);
+  EXPECT_EQ(c.recon.sift.max_features, defaults.recon.sift.max_features);
+  EXPECT_EQ(c.recon.match.ratio, defaults.recon.match.ratio);
+  EXPECT_EQ(c.recon.two_view.ransac_threshold_px, defaults.recon.two_view.ransac_threshold_px);
+  EXPECT_EQ(c.recon.two_view.min_inliers, defaults.recon.two_view.min_inliers);
+  EXPECT_EQ(c.spool_dir, defaults.spool_dir);
+  EXPECT_EQ(c.spool_max_entries, defaults.spool_max_entries);
+  EXPECT_EQ(c.control_socket, defaults.control_socket);
+  EXPECT_EQ(c.log_level, defaults.log_level);
+}
+
+TEST(DaemonConfig, RelativePathsResolveAgainstConfigFolder) {
+  const DaemonConfig c = ParseDaemonConfig(kMinimal, "/etc/monomesh/d.toml");
+  EXPECT_EQ(c.calibration, std::filesystem::path("/etc/monomesh/c.toml"));
+  EXPECT_EQ(c.camera_uri, "replay:data");
+}
+
+TEST(DaemonConfig, ErrorsNameTheKey) {
+  ExpectError(std::string(kMinimal) + "[spool]\ndirr = \"x\"\n", "spool.dirr");
+  ExpectError(std::string(kMinimal) + "[spol]\n", "'spol': unknown table");
+  ExpectError(std::string(kMinimal) + "[keyframes]\nb_after_frames = 0\n",
+              "keyframes.b_after_frames");
+  ExpectError(std::string(kMinimal) + "[keyframes]\ntimeout_s = \"soon\"\n",
+              "keyframes.timeout_s': wrong type");
+  ExpectError(std::string(kMinimal) + "[recon]\nmatch_ratio = 1.5\n", "recon.match_ratio");
+  ExpectError(std::string(kMinimal) + "[log]\nlevel = \"loud\"\n", "log.level");
+  ExpectError("[camera]\ncalibration = \"c.toml\"\n", "camera.uri");
+  ExpectError("[camera\n", "not valid TOML");
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,492 @@
+#include "app/daemon.h"
+
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/signalfd.h>
+#include <sys/socket.h>
+#include <sys/timerfd.h>
+#include <systemd/sd-daemon.h>
+
+#include <condition_variable>
+#include <cstring>
+#include <ctime>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <thread>
+
+#include "app/control.h"
+#include "app/pair_job.h"
+#include "base/unique_fd.h"
+#include "calib/calib_io.h"
+#include "calib/undistort.h"
+#include "capture/capture_thread.h"
+#include "capture/source_uri.h"
+#include "spool/spool.h"
+
+namespace mm {
+namespace {
+
+using json = nlohmann::json;
+
+constexpr int kExitSoftware = 70;  // EX_SOFTWARE
+constexpr int kExitUnavailable = 69;  // EX_UNAVAILABLE
+
+void SignalEventFd(int fd) {
+  const uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(fd, &one, sizeof(one));
+}
+
+void DrainEventFd(int fd) {
+  uint64_t value = 0;
+  [[maybe_unused]] const ssize_t n = ::read(fd, &value, sizeof(value));
+}
+
+struct Job {
+  uint64_t capture_id = 0;
+  FramePtr a;
+  FramePtr b;
+};
+
+struct JobOutcome {
+  uint64_t capture_id = 0;
+  bool ok = false;
+  std::string entry;
+  std::string error;
+  double seconds = 0.0;
+};
+
+KeyframeInfo InfoOf(const Frame& f) {
+  return {f.sequence, f.source_time_s, f.capture_time_ns, f.source_id};
+}
+
+// The reconstruction worker: a thread with a queue of at most one job.
+class Worker {
+ public:
+  Worker(const DaemonConfig& config, const BouguetCamera& camera, Spool* spool, int done_fd)
+      : config_(config), camera_(camera), undistorter_(camera), spool_(spool), done_fd_(done_fd) {
+    thread_ = std::thread([this] { Run(); });
+  }
+  ~Worker() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  Worker(const Worker&) = delete;
+  Worker& operator=(const Worker&) = delete;
+
+  /// False when a job is already queued or running.
+  bool Submit(Job job) {
+    std::lock_guard lock(mutex_);
+    if (job_ || busy_) return false;
+    job_ = std::move(job);
+    cv_.notify_all();
+    return true;
+  }
+
+  std::optional<JobOutcome> TakeOutcome() {
+    std::lock_guard lock(mutex_);
+    if (outcomes_.empty()) return std::nullopt;
+    JobOutcome o = std::move(outcomes_.front());
+    outcomes_.pop_front();
+    return o;
+  }
+
+ private:
+  void Run() {
+    for (;;) {
+      Job job;
+      {
+        std::unique_lock lock(mutex_);
+        cv_.wait(lock, [&] { return stop_ || job_.has_value(); });
+        if (stop_) return;
+        job = std::move(*job_);
+        job_.reset();
+        busy_ = true;
+      }
+      JobOutcome outcome = Process(job);
+      {
+        std::lock_guard lock(mutex_);
+        busy_ = false;
+        outcomes_.push_back(std::move(outcome));
+      }
+      SignalEventFd(done_fd_);
+    }
+  }
+
+  JobOutcome Process(const Job& job) {
+    const auto start = std::chrono::steady_clock::now();
+    JobOutcome outcome;
+    outcome.capture_id = job.capture_id;
+    try {
+      const cv::Mat a = undistorter_.Apply(job.a->image);
+      const cv::Mat b = undistorter_.Apply(job.b->image);
+      PairJobResult result = RunPairJob(a, b, InfoOf(*job.a), InfoOf(*job.b),
+                                        undistorter_.output_camera(), config_.recon);
+      if (!result.ok) {
+        outcome.error = "reconstruction failed: " + result.error;
+      } else {
+        const SpoolCommit commit = spool_->Commit(result.files, std::time(nullptr));
+        if (commit.ok) {
+          outcome.ok = true;
+          outcome.entry = commit.entry.string();
+          if (!commit.error.empty()) spdlog::warn("spool: {}", commit.error);
+          if (commit.removed_by_retention > 0) {
+            spdlog::info("spool: retention removed {} old entries", commit.removed_by_retention);
+          }
+        } else {
+          outcome.error = "spool write failed: " + commit.error;
+        }
+      }
+    } catch (const std::exception& e) {
+      outcome.error = std::string("internal error: ") + e.what();
+    }
+    outcome.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return outcome;
+  }
+
+  const DaemonConfig& config_;
+  BouguetCamera camera_;
+  Undistorter undistorter_;
+  Spool* spool_;
+  int done_fd_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool stop_ = false;            // Guarded by mutex_.
+  bool busy_ = false;            // Guarded by mutex_.
+  std::optional<Job> job_;       // Guarded by mutex_.
+  std::deque<JobOutcome> outcomes_;  // Guarded by mutex_.
+};
+
+enum class State { kIdle, kTracking, kReconstructing };
+
+const char* Name(State s) {
+  switch (s) {
+    case State::kIdle: return "idle";
+    case State::kTracking: return "tracking";
+    case State::kReconstructing: return "reconstructing";
+  }
+  return "?";
+}
+
+class Daemon {
+ public:
+  Daemon(const DaemonConfig& config, BouguetCamera camera)
+      : config_(config), camera_(std::move(camera)),
+        spool_({.dir = config.spool_dir, .max_entries = config.spool_max_entries}) {}
+
+  int Run();
+
+ private:
+  void OnTrigger(const char* origin, json* reply);
+  void OnFrame();
+  void OnJobDone();
+  void OnTimer();
+  void OnClient(int fd);
+  json Status();
+  void SetState(State s);
+  void AddFd(int fd);
+
+  const DaemonConfig& config_;
+  BouguetCamera camera_;
+  Spool spool_;
+  UniqueFd epoll_;
+  UniqueFd frame_event_;
+  UniqueFd done_event_;
+  UniqueFd signal_fd_;
+  UniqueFd timer_fd_;
+  UniqueFd listen_fd_;
+  std::map<int, UniqueFd> clients_;
+  std::unique_ptr<CaptureThread> capture_;
+  std::unique_ptr<Worker> worker_;
+
+  State state_ = State::kIdle;
+  uint64_t captures_ = 0;
+  uint64_t succeeded_ = 0;
+  FramePtr keyframe_a_;
+  std::chrono::steady_clock::time_point tracking_deadline_;
+  json last_result_ = nullptr;
+  uint64_t watchdog_usec_ = 0;
+  std::chrono::steady_clock::time_point last_watchdog_;
+  bool stop_ = false;
+};
+
+void Daemon::AddFd(int fd) {
+  epoll_event ev{};
+  ev.events = EPOLLIN;
+  ev.data.fd = fd;
+  if (::epoll_ctl(epoll_.get(), EPOLL_CTL_ADD, fd, &ev) != 0) {
+    throw std::runtime_error(std::string("epoll_ctl: ") + std::strerror(errno));
+  }
+}
+
+void Daemon::SetState(State s) {
+  state_ = s;
+  sd_notifyf(0, "STATUS=%s; %llu captures, %llu meshes", Name(s),
+             static_cast<unsigned long long>(captures_),
+             static_cast<unsigned long long>(succeeded_));
+}
+
+int Daemon::Run() {
+  int leftovers = 0;
+  if (std::string error = spool_.Recover(&leftovers); !error.empty()) {
+    spdlog::critical("{}", error);
+    return kExitUnavailable;
+  }
+  if (leftovers > 0) {
+    spdlog::warn("spool {}: removed {} incomplete entries left by an earlier crash",
+                 spool_.dir().string(), leftovers);
+  }
+
+  epoll_.reset(::epoll_create1(EPOLL_CLOEXEC));
+  frame_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
+  done_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (int s : {SIGTERM, SIGINT, SIGUSR1, SIGHUP}) sigaddset(&signals, s);
+  // Block before any thread starts, so every thread inherits the mask and signalfd sees them.
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+  signal_fd_.reset(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
+  timer_fd_.reset(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC));
+  const itimerspec period{{0, 100'000'000}, {0, 100'000'000}};
+  ::timerfd_settime(timer_fd_.get(), 0, &period, nullptr);
+  for (int fd : {frame_event_.get(), done_event_.get(), signal_fd_.get(), timer_fd_.get()}) {
+    AddFd(fd);
+  }
+
+  try {
+    capture_ = std::make_unique<CaptureThread>(
+        CreateFrameSource(config_.camera_uri, config_.config_dir.string()),
+        CaptureThread::Callbacks{
+            .on_frame = [fd = frame_event_.get()] { SignalEventFd(fd); },
+            .on_error = [](const std::string& e) { spdlog::error("camera: {}", e); }});
+  } catch (const SourceUriError& e) {
+    spdlog::critical("{}", e.what());
+    return 78;  // EX_CONFIG: the URI is part of the configuration.
+  }
+  if (std::string error = capture_->Start(); !error.empty()) {
+    spdlog::critical("camera: {}", error);
+    return kExitUnavailable;
+  }
+  spdlog::info("camera: {}", capture_->Describe());
+
+  try {
+    listen_fd_ = ListenControlSocket(config_.control_socket);
+  } catch (const ControlError& e) {
+    spdlog::critical("{}", e.what());
+    return kExitUnavailable;
+  }
+  AddFd(listen_fd_.get());
+  worker_ = std::make_unique<Worker>(config_, camera_, &spool_, done_event_.get());
+
+  if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
+  last_watchdog_ = std::chrono::steady_clock::now();
+  spdlog::info("ready: control socket {}, spool {}", config_.control_socket.string(),
+               spool_.dir().string());
+  sd_notify(0, "READY=1");
+  SetState(State::kIdle);
+
+  epoll_event events[16];
+  while (!stop_) {
+    const int n = ::epoll_wait(epoll_.get(), events, 16, -1);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      spdlog::critical("epoll_wait: {}", std::strerror(errno));
+      return kExitSoftware;
+    }
+    for (int i = 0; i < n && !stop_; ++i) {
+      const int fd = events[i].data.fd;
+      if (fd == signal_fd_.get()) {
+        signalfd_siginfo info{};
+        while (::read(fd, &info, sizeof(info)) == sizeof(info)) {
+          if (info.ssi_signo == SIGUSR1) {
+            json reply;
+            OnTrigger("SIGUSR1", &reply);
+          } else if (info.ssi_signo == SIGHUP) {
+            spdlog::info("SIGHUP ignored (restart the service to reload the config)");
+          } else {
+            spdlog::info("signal {}: stopping", info.ssi_signo);
+            stop_ = true;
+          }
+        }
+      } else if (fd == frame_event_.get()) {
+        DrainEventFd(fd);
+        OnFrame();
+      } else if (fd == done_event_.get()) {
+        DrainEventFd(fd);
+        OnJobDone();
+      } else if (fd == timer_fd_.get()) {
+        DrainEventFd(fd);
+        OnTimer();
+      } else if (fd == listen_fd_.get()) {
+        for (;;) {
+          const int client = ::accept4(fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+          if (client < 0) break;
+          clients_.emplace(client, UniqueFd(client));
+          AddFd(client);
+        }
+      } else {
+        OnClient(fd);
+      }
+    }
+  }
+  sd_notify(0, "STOPPING=1");
+  worker_.reset();  // Finishes the job in progress: an entry is committed whole or not at all.
+  capture_->Stop();
+  ::unlink(config_.control_socket.c_str());
+  spdlog::info("stopped");
+  return 0;
+}
+
+void Daemon::OnTrigger(const char* origin, json* reply) {
+  if (state_ != State::kIdle) {
+    *reply = {{"ok", false}, {"error", std::string("busy: ") + Name(state_)}};
+    spdlog::warn("trigger ({}) refused: busy {}", origin, Name(state_));
+    return;
+  }
+  FramePtr latest = capture_->Latest();
+  if (!latest) {
+    *reply = {{"ok", false}, {"error", "no frame from the camera yet"}};
+    spdlog::warn("trigger ({}) refused: no frame yet", origin);
+    return;
+  }
+  ++captures_;
+  keyframe_a_ = std::move(latest);
+  tracking_deadline_ = std::chrono::steady_clock::now() +
+                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                           std::chrono::duration<double>(config_.keyframe_timeout_s));
+  spdlog::info("capture {} ({}): keyframe A = frame {} ({})", captures_, origin,
+               keyframe_a_->sequence, keyframe_a_->source_id);
+  SetState(State::kTracking);
+  *reply = {{"ok", true}, {"capture", captures_}};
+}
+
+void Daemon::OnFrame() {
+  if (state_ != State::kTracking) return;
+  FramePtr frame = capture_->Latest();
+  if (!frame) return;
+  if (frame->sequence < keyframe_a_->sequence + static_cast<uint64_t>(config_.keyframe_b_after_frames)) {
+    return;
+  }
+  spdlog::info("capture {}: keyframe B = frame {} ({})", captures_, frame->sequence,
+               frame->source_id);
+  if (!worker_->Submit({captures_, keyframe_a_, frame})) {
+    spdlog::error("capture {}: worker busy; capture dropped", captures_);
+    last_result_ = {{"capture", captures_}, {"ok", false}, {"error", "worker busy"}};
+    keyframe_a_.reset();
+    SetState(State::kIdle);
+    return;
+  }
+  keyframe_a_.reset();
+  SetState(State::kReconstructing);
+}
+
+void Daemon::OnJobDone() {
+  while (std::optional<JobOutcome> o = worker_->TakeOutcome()) {
+    if (o->ok) {
+      ++succeeded_;
+      spdlog::info("capture {}: mesh written to {} ({:.2f} s)", o->capture_id, o->entry,
+                   o->seconds);
+    } else {
+      spdlog::error("capture {}: {}", o->capture_id, o->error);
+    }
+    last_result_ = {{"capture", o->capture_id}, {"ok", o->ok}, {"entry", o->entry},
+                    {"error", o->error}, {"seconds", o->seconds}};
+    SetState(State::kIdle);
+  }
+}
+
+void Daemon::OnTimer() {
+  const auto now = std::chrono::steady_clock::now();
+  if (state_ == State::kTracking && now > tracking_deadline_) {
+    spdlog::error("capture {}: no keyframe B within {} s", captures_, config_.keyframe_timeout_s);
+    last_result_ = {{"capture", captures_}, {"ok", false},
+                    {"error", "timeout: no keyframe B (camera stalled or ended?)"}};
+    keyframe_a_.reset();
+    SetState(State::kIdle);
+  }
+  if (watchdog_usec_ > 0 &&
+      now - last_watchdog_ > std::chrono::microseconds(watchdog_usec_ / 2)) {
+    sd_notify(0, "WATCHDOG=1");
+    last_watchdog_ = now;
+  }
+}
+
+void Daemon::OnClient(int fd) {
+  char buf[512];
+  const ssize_t n = ::recv(fd, buf, sizeof(buf) - 1, 0);
+  json reply;
+  if (n > 0) {
+    std::string command(buf, static_cast<size_t>(n));
+    while (!command.empty() && (command.back() == '\n' || command.back() == '\r')) {
+      command.pop_back();
+    }
+    if (command == "trigger") {
+      OnTrigger("control socket", &reply);
+    } else if (command == "status") {
+      reply = Status();
+    } else if (command == "ping") {
+      reply = {{"ok", true}};
+    } else {
+      reply = {{"ok", false}, {"error", "unknown command '" + command +
+                                            "' (known: trigger, status, ping)"}};
+    }
+    const std::string line = reply.dump() + "\n";
+    [[maybe_unused]] const ssize_t w = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+  } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+    return;  // Spurious wake-up; wait for the request.
+  }
+  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, fd, nullptr);
+  clients_.erase(fd);
+}
+
+json Daemon::Status() {
+  const CaptureStats stats = capture_->stats();
+  return {{"ok", true},
+          {"state", Name(state_)},
+          {"captures", captures_},
+          {"meshes", succeeded_},
+          {"camera", {{"source", capture_->Describe()},
+                      {"frames", stats.frames},
+                      {"dropped", stats.dropped},
+                      {"errors", stats.errors},
+                      {"end_of_stream", stats.end_of_stream},
+                      {"last_error", stats.last_error}}},
+          {"spool", spool_.dir().string()},
+          {"last_result", last_result_}};
+}
+
+}  // namespace
+
+int RunDaemon(const DaemonConfig& config) {
+  BouguetCamera camera;
+  try {
+    camera = LoadCalibration(config.calibration);
+  } catch (const CalibrationError& e) {
+    spdlog::critical("{}", e.what());
+    return 78;
+  }
+  if (camera.width <= 0) {
+    spdlog::critical("{}: image_size is required by the daemon", config.calibration.string());
+    return 78;
+  }
+  Daemon daemon(config, camera);
+  try {
+    return daemon.Run();
+  } catch (const std::exception& e) {
+    spdlog::critical("internal error: {}", e.what());
+    return kExitSoftware;
+  }
+}
+
+}  // namespace mm

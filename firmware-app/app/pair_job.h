@@ -1,0 +1,37 @@
+#pragma once
+// One capture's work after both keyframes are in: reconstruct the pair and encode everything a
+// spool entry holds (mesh.ply, mesh.obj + mesh.mtl + texture.jpg, calibration.toml,
+// report.json). Shared by `monomesh recon` and the daemon's worker.
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "calib/camera_model.h"
+#include "recon/pipeline.h"
+#include "spool/spool.h"
+
+namespace mm {
+
+/// Where a keyframe came from, for the report.
+struct KeyframeInfo {
+  uint64_t sequence = 0;
+  double source_time_s = 0.0;
+  int64_t capture_time_ns = 0;
+  std::string source;
+};
+
+struct PairJobResult {
+  bool ok = false;
+  std::string error;               ///< The reconstruction's failure reason.
+  std::vector<SpoolFile> files;    ///< The entry's files (only when ok).
+  nlohmann::json report;           ///< Also written as report.json (always filled).
+  PairReconstruction recon;
+};
+
+/// `image_a`/`image_b` are undistorted BGR8 frames seen through `camera` (no distortion).
+PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
+                         const KeyframeInfo& b, const BouguetCamera& camera,
+                         const PairOptions& options);
+
+}  // namespace mm

@@ -1,0 +1,27 @@
+// monomeshd: the capture-to-mesh appliance daemon. Wiring only: parse the command line, load
+// the config, run the daemon (firmware-app/app/daemon.h).
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "app/config.h"
+#include "app/daemon.h"
+#include "app/logging.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"monomeshd: capture-to-mesh camera appliance daemon"};
+  std::string config_path = "/etc/monomesh/monomeshd.toml";
+  app.add_option("-c,--config", config_path, "Config file (TOML)")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  mm::DaemonConfig config;
+  try {
+    config = mm::LoadDaemonConfig(config_path);
+  } catch (const mm::ConfigError& e) {
+    mm::SetupLogging("info");
+    spdlog::critical("config: {}", e.what());
+    return 78;  // EX_CONFIG: systemd does not restart on it (RestartPreventExitStatus=78).
+  }
+  mm::SetupLogging(config.log_level);
+  return mm::RunDaemon(config);
+}

@@ -1,0 +1,86 @@
+#include "recon/pipeline.h"
+
+#include <chrono>
+#include <opencv2/imgproc.hpp>
+
+namespace mm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+cv::Mat ToGray(const cv::Mat& image) {
+  if (image.type() == CV_8UC1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+}  // namespace
+
+std::string PairOptions::Check() const {
+  for (const std::string& problem : {sift.Check(), match.Check(), two_view.Check(), mesh.Check()}) {
+    if (!problem.empty()) return problem;
+  }
+  return {};
+}
+
+PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
+                                   const BouguetCamera& camera, const PairOptions& options) {
+  PairReconstruction out;
+  if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
+    out.failure_reason = "keyframes are empty or of different sizes";
+    return out;
+  }
+  auto start = Clock::now();
+  const Features features_a = ExtractSift(ToGray(image_a), options.sift);
+  out.times.features_a_s = SecondsSince(start);
+  start = Clock::now();
+  const Features features_b = ExtractSift(ToGray(image_b), options.sift);
+  out.times.features_b_s = SecondsSince(start);
+  out.features_a = static_cast<int>(features_a.keypoints.size());
+  out.features_b = static_cast<int>(features_b.keypoints.size());
+
+  start = Clock::now();
+  const std::vector<Match> matches =
+      MatchDescriptors(features_a.descriptors, features_b.descriptors, options.match);
+  out.times.matching_s = SecondsSince(start);
+  out.matches = static_cast<int>(matches.size());
+
+  start = Clock::now();
+  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
+  pixels_a.reserve(matches.size());
+  pixels_b.reserve(matches.size());
+  for (const Match& m : matches) {
+    const cv::Point2f& pa = features_a.keypoints[static_cast<size_t>(m.index_a)].pt;
+    const cv::Point2f& pb = features_b.keypoints[static_cast<size_t>(m.index_b)].pt;
+    pixels_a.emplace_back(pa.x, pa.y);
+    pixels_b.emplace_back(pb.x, pb.y);
+  }
+  out.geometry = EstimateTwoView(pixels_a, pixels_b, camera.K(), options.two_view);
+  out.times.geometry_s = SecondsSince(start);
+  if (!out.geometry.success) {
+    out.failure_reason = out.geometry.failure_reason;
+    return out;
+  }
+
+  start = Clock::now();
+  for (int index : out.geometry.point_correspondence) {
+    out.point_pixels_a.push_back(pixels_a[static_cast<size_t>(index)]);
+  }
+  out.mesh = BuildDelaunayMesh(out.geometry.points_in_cam_a, out.point_pixels_a, image_a.cols,
+                               image_a.rows, options.mesh, &out.mesh_summary);
+  if (image_a.type() == CV_8UC3) ColorVerticesFromTexture(image_a, &out.mesh);
+  out.times.meshing_s = SecondsSince(start);
+  if (out.mesh.triangles.empty()) {
+    out.failure_reason = "mesh has no triangles";
+    return out;
+  }
+  out.success = true;
+  return out;
+}
+
+}  // namespace mm

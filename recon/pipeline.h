@@ -1,0 +1,55 @@
+#pragma once
+// Two keyframes -> relative pose, 3-D points and a textured mesh. The stages: SIFT on both
+// (undistorted) keyframes, ratio-test matching, relative pose and triangulation (two_view.h),
+// Delaunay mesh textured from keyframe A (mesh.h).
+//
+// Thread-safety: pure function; reentrant.
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "calib/camera_model.h"
+#include "recon/features.h"
+#include "recon/mesh.h"
+#include "recon/two_view.h"
+
+namespace mm {
+
+struct PairOptions {
+  SiftOptions sift;
+  MatchOptions match;
+  TwoViewOptions two_view;
+  MeshOptions mesh;
+  [[nodiscard]] std::string Check() const;
+};
+
+struct StageTimes {
+  double features_a_s = 0;
+  double features_b_s = 0;
+  double matching_s = 0;
+  double geometry_s = 0;
+  double meshing_s = 0;
+  [[nodiscard]] double total_s() const {
+    return features_a_s + features_b_s + matching_s + geometry_s + meshing_s;
+  }
+};
+
+struct PairReconstruction {
+  bool success = false;
+  std::string failure_reason;
+  int features_a = 0;
+  int features_b = 0;
+  int matches = 0;
+  TwoViewResult geometry;
+  std::vector<Eigen::Vector2d> point_pixels_a;  ///< Where each 3-D point was observed in A.
+  Mesh mesh;
+  MeshSummary mesh_summary;
+  StageTimes times;
+};
+
+/// Reconstructs a pair of undistorted frames (BGR8 or GRAY8) seen through `camera` (no
+/// distortion expected). Data failures are reported in the result, never thrown.
+PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
+                                   const BouguetCamera& camera, const PairOptions& options);
+
+}  // namespace mm

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The main job on its embedded default: builds, starts monomeshd with the replay camera on the
+# bundled TUM keyframes, presses capture over the control socket, waits for the spool entry,
+# prints where the mesh and its report are, and stops the daemon.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root="$PWD"
+scripts/build.sh default
+
+demo="$root/build/demo"
+spool="$root/spool"
+mkdir -p "$demo"
+cat > "$demo/monomeshd.toml" <<TOML
+# Written by scripts/demo.sh: the bundled dataset as a camera at 1x speed, a local spool.
+[camera]
+uri = "replay:$root/data/tum_office?rate=realtime&loop=1"
+calibration = "$root/data/tum_office/calib.toml"
+[control]
+socket = "$demo/control.sock"
+[spool]
+dir = "$spool"
+TOML
+
+bin="$root/build/default/firmware-app"
+"$bin/monomeshd" --config "$demo/monomeshd.toml" 2> "$demo/monomeshd.log" &
+daemon=$!
+trap 'kill -TERM $daemon 2>/dev/null || true; wait $daemon 2>/dev/null || true' EXIT
+for _ in $(seq 100); do
+  "$bin/monomesh" ctl ping --socket "$demo/control.sock" >/dev/null 2>&1 && break
+  kill -0 $daemon 2>/dev/null || { cat "$demo/monomeshd.log"; exit 1; }
+  sleep 0.1
+done
+
+echo "monomeshd is running (log: $demo/monomeshd.log); pressing capture..."
+result=$("$bin/monomesh" ctl trigger --wait 120 --socket "$demo/control.sock") || {
+  echo "$result"; cat "$demo/monomeshd.log"; exit 1; }
+entry=$(printf '%s\n' "$result" | sed -n 's/.*"entry": "\(.*\)".*/\1/p')
+echo
+echo "spool entry: $entry"
+echo "  mesh:   $entry/mesh.obj (+ mesh.mtl, texture.jpg), $entry/mesh.ply"
+echo "  report: $entry/report.json"
+grep -E '"(mesh_vertices|mesh_triangles|inliers|total_recon)"' "$entry/report.json" | sed 's/^ */    /'

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Sets up a fresh Debian 12 machine, builds the default preset and runs the whole test suite.
+# Exits non-zero on any failure. Tests that need ../shared/data skip (code 77) without it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/build.sh default
+ctest --preset default -j"$(nproc)"
