@@ -1,24 +1,22 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages monomesh needs to build, test and run. Idempotent:
-# packages already present are skipped, so a second run costs one dpkg query.
-# Usage: scripts/install-deps.sh [--with-kernel-tests] [--with-cross]
+# Installs the Debian 12 packages monomesh needs, idempotently: packages already present are
+# skipped, so a second run costs one dpkg query per package. sudo is used when not root.
+# Usage: scripts/install-deps.sh [GROUP ...]   (groups: scripts/deps/<GROUP>.txt; base always)
 set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
-pkgs=(
-  # toolchain
-  build-essential cmake ninja-build pkg-config git clang clang-format clang-tidy
-  # libraries
-  libopencv-dev libeigen3-dev libceres-dev libcgal-dev libgmp-dev libmpfr-dev
-  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libtinygltf-dev libstb-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libhwy-dev
-  libgpiod-dev libcamera-dev libsystemd-dev libturbojpeg0-dev
-  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  # test tools
-  assimp-utils
-)
+pkgs=()
+for group in base "$@"; do
+  file="$here/deps/$group.txt"
+  [ -f "$file" ] || { echo "install-deps: no package group '$group' ($file)" >&2; exit 2; }
+  while read -r line; do
+    line="${line%%#*}"
+    for p in $line; do pkgs+=("$p"); done
+  done < "$file"
+done
 
 missing=()
 for p in "${pkgs[@]}"; do
@@ -31,7 +29,7 @@ if [ "${#missing[@]}" -gt 0 ]; then
   echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 else
   echo "install-deps: all ${#pkgs[@]} packages present"
 fi

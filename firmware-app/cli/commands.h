@@ -1,0 +1,18 @@
+#pragma once
+// Subcommands of the `monomesh` tool. Each lives in its own file and registers itself on the
+// CLI11 app; main() only collects them (firmware-app/monomesh_main.cc).
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace mm::cli {
+
+/// What a registered subcommand runs once parsed; returns the process exit code.
+using Runner = std::function<int()>;
+
+/// Adds `recon`: one pair of images -> mesh files in a folder.
+Runner AddReconCommand(CLI::App& app);
+/// Adds `ctl`: trigger | status | ping a running monomeshd.
+Runner AddCtlCommand(CLI::App& app);
+
+}  // namespace mm::cli

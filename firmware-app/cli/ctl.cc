@@ -1,0 +1,69 @@
+// `monomesh ctl trigger|status|ping`: talk to a running monomeshd over its control socket.
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "app/config.h"
+#include "app/control.h"
+#include "cli/commands.h"
+
+namespace mm::cli {
+namespace {
+
+using json = nlohmann::json;
+
+int RunCtl(const std::string& command, std::filesystem::path socket, const std::string& config,
+           double wait_s) {
+  using namespace std::chrono_literals;
+  if (!config.empty()) socket = LoadDaemonConfig(config).control_socket;
+  const json reply = json::parse(SendControlCommand(socket, command, 5s));
+  if (command != "trigger" || wait_s <= 0 || !reply.value("ok", false)) {
+    std::cout << reply.dump(2) << "\n";
+    return reply.value("ok", false) ? 0 : 1;
+  }
+  // Wait until the daemon reports the result of this capture.
+  const uint64_t capture = reply["capture"].get<uint64_t>();
+  std::cerr << "capture " << capture << " started; waiting up to " << wait_s << " s\n";
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(wait_s));
+  while (std::chrono::steady_clock::now() < deadline) {
+    const json status = json::parse(SendControlCommand(socket, "status", 5s));
+    const json& last = status["last_result"];
+    if (last.is_object() && last.value("capture", uint64_t{0}) == capture) {
+      std::cout << last.dump(2) << "\n";
+      return last.value("ok", false) ? 0 : 1;
+    }
+    std::this_thread::sleep_for(100ms);
+  }
+  std::cerr << "monomesh ctl: capture " << capture << " did not finish within " << wait_s
+            << " s\n";
+  return 1;
+}
+
+}  // namespace
+
+Runner AddCtlCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("ctl", "Send a command to a running monomeshd");
+  struct Args {
+    std::string command;
+    std::string socket = "/run/monomesh/control.sock";
+    std::string config;
+    double wait_s = 0;
+  };
+  auto args = std::make_shared<Args>();
+  cmd->add_option("command", args->command, "trigger | status | ping")
+      ->required()
+      ->check(CLI::IsMember({"trigger", "status", "ping"}));
+  cmd->add_option("--socket", args->socket, "Control socket")->capture_default_str();
+  cmd->add_option("--config", args->config, "Take the socket path from this daemon config");
+  cmd->add_option("--wait", args->wait_s,
+                  "With trigger: wait up to this many seconds for the result");
+  return [cmd, args]() -> int {
+    if (!cmd->parsed()) return -1;
+    return RunCtl(args->command, args->socket, args->config, args->wait_s);
+  };
+}
+
+}  // namespace mm::cli
