@@ -101,12 +101,21 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   const auto* control = r.Table("control", {"socket"});
   r.GetPath(control, "control", "socket", c.config_dir, &c.control_socket);
 
-  const auto* keyframes = r.Table("keyframes", {"b_after_frames", "timeout_s"});
-  int64_t b_after = c.keyframe_b_after_frames;
-  r.Get(keyframes, "keyframes", "b_after_frames", &b_after);
-  r.Require(b_after >= 1 && b_after <= 10000, keyframes, "keyframes", "b_after_frames",
-            "must be in 1..10000");
-  c.keyframe_b_after_frames = static_cast<int>(b_after);
+  const auto* keyframes = r.Table("keyframes", {"parallax_deg", "min_tracks", "min_inliers",
+                                                "max_homography_inlier_ratio", "timeout_s"});
+  int64_t min_tracks = c.gate.min_tracks;
+  int64_t gate_inliers = c.gate.min_inliers;
+  r.Get(keyframes, "keyframes", "parallax_deg", &c.gate.parallax_deg);
+  r.Get(keyframes, "keyframes", "min_tracks", &min_tracks);
+  r.Get(keyframes, "keyframes", "min_inliers", &gate_inliers);
+  r.Get(keyframes, "keyframes", "max_homography_inlier_ratio",
+        &c.gate.max_homography_inlier_ratio);
+  c.gate.min_tracks = static_cast<int>(min_tracks);
+  c.gate.min_inliers = static_cast<int>(gate_inliers);
+  if (const std::string problem = c.gate.Check(); !problem.empty()) {
+    const std::string key = problem.substr(0, problem.find(':'));
+    r.Require(false, keyframes, "keyframes", key.c_str(), problem.substr(problem.find(':') + 2));
+  }
   r.Get(keyframes, "keyframes", "timeout_s", &c.keyframe_timeout_s);
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 

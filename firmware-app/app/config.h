@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "recon/keyframe_gate.h"
 #include "recon/pipeline.h"
 
 namespace mm {
@@ -24,7 +25,7 @@ struct DaemonConfig {
 
   std::filesystem::path control_socket = "/run/monomesh/control.sock";  ///< [control] socket
 
-  int keyframe_b_after_frames = 1;    ///< [keyframes] b_after_frames
+  KeyframeGateOptions gate;           ///< [keyframes] parallax_deg, min_tracks, ...
   double keyframe_timeout_s = 30.0;   ///< [keyframes] timeout_s
 
   PairOptions recon;                  ///< [recon] ...

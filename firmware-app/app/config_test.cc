@@ -23,7 +23,10 @@ constexpr const char* kMinimal = "[camera]\nuri = \"replay:data\"\ncalibration =
 TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
   const DaemonConfig c = LoadDaemonConfig(kExample);
   const DaemonConfig defaults = ParseDaemonConfig(kMinimal, "/x/d.toml");
-  EXPECT_EQ(c.keyframe_b_after_frames, defaults.keyframe_b_after_frames);
+  EXPECT_EQ(c.gate.parallax_deg, defaults.gate.parallax_deg);
+  EXPECT_EQ(c.gate.min_tracks, defaults.gate.min_tracks);
+  EXPECT_EQ(c.gate.min_inliers, defaults.gate.min_inliers);
+  EXPECT_EQ(c.gate.max_homography_inlier_ratio, defaults.gate.max_homography_inlier_ratio);
   EXPECT_EQ(c.keyframe_timeout_s, defaults.keyframe_timeout_s);
   EXPECT_EQ(c.recon.sift.max_features, defaults.recon.sift.max_features);
   EXPECT_EQ(c.recon.match.ratio, defaults.recon.match.ratio);
@@ -44,8 +47,10 @@ TEST(DaemonConfig, RelativePathsResolveAgainstConfigFolder) {
 TEST(DaemonConfig, ErrorsNameTheKey) {
   ExpectError(std::string(kMinimal) + "[spool]\ndirr = \"x\"\n", "spool.dirr");
   ExpectError(std::string(kMinimal) + "[spol]\n", "'spol': unknown table");
-  ExpectError(std::string(kMinimal) + "[keyframes]\nb_after_frames = 0\n",
-              "keyframes.b_after_frames");
+  ExpectError(std::string(kMinimal) + "[keyframes]\nparallax_deg = 0\n",
+              "keyframes.parallax_deg");
+  ExpectError(std::string(kMinimal) + "[keyframes]\nb_after_frames = 2\n",
+              "keyframes.b_after_frames': unknown key");
   ExpectError(std::string(kMinimal) + "[keyframes]\ntimeout_s = \"soon\"\n",
               "keyframes.timeout_s': wrong type");
   ExpectError(std::string(kMinimal) + "[recon]\nmatch_ratio = 1.5\n", "recon.match_ratio");

@@ -17,6 +17,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 
 #include "app/control.h"
@@ -24,6 +25,7 @@
 #include "base/unique_fd.h"
 #include "calib/calib_io.h"
 #include "calib/undistort.h"
+#include "recon/keyframe_gate.h"
 #include "capture/capture_thread.h"
 #include "capture/source_uri.h"
 #include "spool/spool.h"
@@ -48,8 +50,10 @@ void DrainEventFd(int fd) {
 
 struct Job {
   uint64_t capture_id = 0;
-  FramePtr a;
+  FramePtr a;                // Raw frames, for the report.
   FramePtr b;
+  cv::Mat undistorted_a;     // What the reconstruction sees.
+  cv::Mat undistorted_b;
 };
 
 struct JobOutcome {
@@ -67,8 +71,9 @@ KeyframeInfo InfoOf(const Frame& f) {
 // The reconstruction worker: a thread with a queue of at most one job.
 class Worker {
  public:
-  Worker(const DaemonConfig& config, const BouguetCamera& camera, Spool* spool, int done_fd)
-      : config_(config), camera_(camera), undistorter_(camera), spool_(spool), done_fd_(done_fd) {
+  Worker(const DaemonConfig& config, const BouguetCamera& undistorted_camera, Spool* spool,
+         int done_fd)
+      : config_(config), camera_(undistorted_camera), spool_(spool), done_fd_(done_fd) {
     thread_ = std::thread([this] { Run(); });
   }
   ~Worker() {
@@ -126,10 +131,8 @@ class Worker {
     JobOutcome outcome;
     outcome.capture_id = job.capture_id;
     try {
-      const cv::Mat a = undistorter_.Apply(job.a->image);
-      const cv::Mat b = undistorter_.Apply(job.b->image);
-      PairJobResult result = RunPairJob(a, b, InfoOf(*job.a), InfoOf(*job.b),
-                                        undistorter_.output_camera(), config_.recon);
+      PairJobResult result = RunPairJob(job.undistorted_a, job.undistorted_b, InfoOf(*job.a),
+                                        InfoOf(*job.b), camera_, config_.recon);
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
       } else {
@@ -154,8 +157,7 @@ class Worker {
   }
 
   const DaemonConfig& config_;
-  BouguetCamera camera_;
-  Undistorter undistorter_;
+  BouguetCamera camera_;  // Of the undistorted frames.
   Spool* spool_;
   int done_fd_;
   std::thread thread_;
@@ -180,8 +182,9 @@ const char* Name(State s) {
 
 class Daemon {
  public:
-  Daemon(const DaemonConfig& config, BouguetCamera camera)
-      : config_(config), camera_(std::move(camera)),
+  Daemon(const DaemonConfig& config, const BouguetCamera& camera)
+      : config_(config), undistorter_(camera),
+        gate_(undistorter_.output_camera().K(), config.gate),
         spool_({.dir = config.spool_dir, .max_entries = config.spool_max_entries}) {}
 
   int Run();
@@ -194,10 +197,13 @@ class Daemon {
   void OnClient(int fd);
   json Status();
   void SetState(State s);
+  void EndCapture(const std::string& error);
   void AddFd(int fd);
+  static cv::Mat Gray(const cv::Mat& image);
 
   const DaemonConfig& config_;
-  BouguetCamera camera_;
+  Undistorter undistorter_;
+  KeyframeGate gate_;
   Spool spool_;
   UniqueFd epoll_;
   UniqueFd frame_event_;
@@ -213,6 +219,9 @@ class Daemon {
   uint64_t captures_ = 0;
   uint64_t succeeded_ = 0;
   FramePtr keyframe_a_;
+  cv::Mat undistorted_a_;
+  uint64_t last_tracked_sequence_ = 0;
+  GateDecision last_decision_;
   std::chrono::steady_clock::time_point tracking_deadline_;
   json last_result_ = nullptr;
   uint64_t watchdog_usec_ = 0;
@@ -287,7 +296,8 @@ int Daemon::Run() {
     return kExitUnavailable;
   }
   AddFd(listen_fd_.get());
-  worker_ = std::make_unique<Worker>(config_, camera_, &spool_, done_event_.get());
+  worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_,
+                                     done_event_.get());
 
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   last_watchdog_ = std::chrono::steady_clock::now();
@@ -360,34 +370,78 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
     spdlog::warn("trigger ({}) refused: no frame yet", origin);
     return;
   }
+  cv::Mat undistorted;
+  try {
+    undistorted = undistorter_.Apply(latest->image);
+  } catch (const std::exception& e) {
+    *reply = {{"ok", false}, {"error", std::string("frame does not fit the calibration: ") + e.what()}};
+    spdlog::error("trigger ({}) refused: {}", origin, e.what());
+    return;
+  }
   ++captures_;
   keyframe_a_ = std::move(latest);
+  undistorted_a_ = undistorted;
+  last_tracked_sequence_ = keyframe_a_->sequence;
+  const int corners = gate_.Start(Gray(undistorted_a_));
+  last_decision_ = GateDecision{};
+  last_decision_.tracks = corners;
   tracking_deadline_ = std::chrono::steady_clock::now() +
                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                            std::chrono::duration<double>(config_.keyframe_timeout_s));
-  spdlog::info("capture {} ({}): keyframe A = frame {} ({})", captures_, origin,
-               keyframe_a_->sequence, keyframe_a_->source_id);
+  spdlog::info("capture {} ({}): keyframe A = frame {} ({}), {} corners to track", captures_,
+               origin, keyframe_a_->sequence, keyframe_a_->source_id, corners);
   SetState(State::kTracking);
   *reply = {{"ok", true}, {"capture", captures_}};
+}
+
+cv::Mat Daemon::Gray(const cv::Mat& image) {
+  if (image.type() == CV_8UC1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+void Daemon::EndCapture(const std::string& error) {
+  spdlog::error("capture {}: {}", captures_, error);
+  last_result_ = {{"capture", captures_}, {"ok", false}, {"error", error}};
+  keyframe_a_.reset();
+  undistorted_a_.release();
+  SetState(State::kIdle);
 }
 
 void Daemon::OnFrame() {
   if (state_ != State::kTracking) return;
   FramePtr frame = capture_->Latest();
-  if (!frame) return;
-  if (frame->sequence < keyframe_a_->sequence + static_cast<uint64_t>(config_.keyframe_b_after_frames)) {
+  if (!frame || frame->sequence <= last_tracked_sequence_) return;
+  last_tracked_sequence_ = frame->sequence;
+  // The gate tracks A's corners into the newest frame (frames dropped meanwhile are skipped;
+  // KLT's pyramid absorbs the larger step).
+  cv::Mat undistorted;
+  try {
+    undistorted = undistorter_.Apply(frame->image);
+  } catch (const std::exception& e) {
+    EndCapture(std::string("frame does not fit the calibration: ") + e.what());
     return;
   }
-  spdlog::info("capture {}: keyframe B = frame {} ({})", captures_, frame->sequence,
-               frame->source_id);
-  if (!worker_->Submit({captures_, keyframe_a_, frame})) {
-    spdlog::error("capture {}: worker busy; capture dropped", captures_);
-    last_result_ = {{"capture", captures_}, {"ok", false}, {"error", "worker busy"}};
-    keyframe_a_.reset();
-    SetState(State::kIdle);
+  last_decision_ = gate_.Update(Gray(undistorted));
+  spdlog::debug("capture {}: frame {}: {} tracks, parallax {:.3f} deg: {}", captures_,
+                frame->sequence, last_decision_.tracks, last_decision_.median_parallax_deg,
+                last_decision_.reason);
+  if (last_decision_.verdict == GateDecision::Verdict::kLostTrack) {
+    EndCapture(last_decision_.reason);
+    return;
+  }
+  if (last_decision_.verdict != GateDecision::Verdict::kTakeB) return;
+  spdlog::info("capture {}: keyframe B = frame {} ({}), parallax {:.2f} deg, {} inliers",
+               captures_, frame->sequence, frame->source_id, last_decision_.median_parallax_deg,
+               last_decision_.essential_inliers);
+  Job job{captures_, keyframe_a_, frame, undistorted_a_, undistorted};
+  if (!worker_->Submit(std::move(job))) {
+    EndCapture("worker busy; capture dropped");
     return;
   }
   keyframe_a_.reset();
+  undistorted_a_.release();
   SetState(State::kReconstructing);
 }
 
@@ -409,11 +463,11 @@ void Daemon::OnJobDone() {
 void Daemon::OnTimer() {
   const auto now = std::chrono::steady_clock::now();
   if (state_ == State::kTracking && now > tracking_deadline_) {
-    spdlog::error("capture {}: no keyframe B within {} s", captures_, config_.keyframe_timeout_s);
-    last_result_ = {{"capture", captures_}, {"ok", false},
-                    {"error", "timeout: no keyframe B (camera stalled or ended?)"}};
-    keyframe_a_.reset();
-    SetState(State::kIdle);
+    EndCapture("not enough motion: no keyframe B within " +
+               std::to_string(config_.keyframe_timeout_s) + " s (last frame: " +
+               std::to_string(last_decision_.tracks) + " tracks, parallax " +
+               std::to_string(last_decision_.median_parallax_deg) + " deg; " +
+               last_decision_.reason + ")");
   }
   if (watchdog_usec_ > 0 &&
       now - last_watchdog_ > std::chrono::microseconds(watchdog_usec_ / 2)) {
@@ -462,6 +516,11 @@ json Daemon::Status() {
                       {"errors", stats.errors},
                       {"end_of_stream", stats.end_of_stream},
                       {"last_error", stats.last_error}}},
+          {"gate", {{"tracks", last_decision_.tracks},
+                    {"parallax_deg", last_decision_.median_parallax_deg},
+                    {"essential_inliers", last_decision_.essential_inliers},
+                    {"homography_inliers", last_decision_.homography_inliers},
+                    {"reason", last_decision_.reason}}},
           {"spool", spool_.dir().string()},
           {"last_result", last_result_}};
 }
@@ -478,6 +537,10 @@ int RunDaemon(const DaemonConfig& config) {
   }
   if (camera.width <= 0) {
     spdlog::critical("{}: image_size is required by the daemon", config.calibration.string());
+    return 78;
+  }
+  if (std::string problem = config.gate.Check(); !problem.empty()) {
+    spdlog::critical("config: keyframes.{}", problem);
     return 78;
   }
   Daemon daemon(config, camera);

@@ -220,10 +220,10 @@ int RunDaemonExpectingExit(const fs::path& config, std::string* log) {
 }
 
 TEST(Daemon, BadConfigExits78NamingTheKey) {
-  DaemonProcess daemon("badconfig", "rate=max", "[keyframes]\nb_after_frames = -3\n");
+  DaemonProcess daemon("badconfig", "rate=max", "[keyframes]\nparallax_deg = -3\n");
   std::string log;
   EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78);
-  EXPECT_NE(log.find("keyframes.b_after_frames"), std::string::npos) << log;
+  EXPECT_NE(log.find("keyframes.parallax_deg"), std::string::npos) << log;
 }
 
 TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
