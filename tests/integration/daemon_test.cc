@@ -1,138 +1,16 @@
 // monomeshd end to end: the bundled TUM keyframes replayed through the virtual camera, a
 // trigger over the control socket, and the spool entry checked against ground truth.
-#include <gtest/gtest.h>
-#include <signal.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
+#include <sys/mount.h>
 
 #include <Eigen/Geometry>
-#include <chrono>
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
-#include <thread>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
-#include "app/control.h"
 #include "dataset/tum.h"
+#include "tests/integration/daemon_process.h"
 
-extern char** environ;
-
-namespace mm {
+namespace mm::test {
 namespace {
-
-namespace fs = std::filesystem;
-using json = nlohmann::json;
-using namespace std::chrono_literals;
-
-const fs::path kData = fs::path(MM_SOURCE_DIR) / "data/tum_office";
-const char* const kEntryFiles[] = {"mesh.ply",    "mesh.obj",         "mesh.mtl",
-                                   "texture.jpg", "calibration.toml", "report.json"};
-
-std::string ReadAll(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// A daemon process with its own folder, config, socket and spool; killed on destruction.
-class DaemonProcess {
- public:
-  DaemonProcess(const std::string& name, const std::string& camera_query,
-                const std::string& extra_config = "") {
-    dir_ = fs::temp_directory_path() / ("mm_daemon_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    std::ofstream(dir_ / "monomeshd.toml")
-        << "[camera]\nuri = \"replay:" << kData.string() << "?" << camera_query << "\"\n"
-        << "calibration = \"" << (kData / "calib.toml").string() << "\"\n"
-        << "[control]\nsocket = \"" << socket().string() << "\"\n"
-        << "[spool]\ndir = \"" << spool().string() << "\"\n"
-        << extra_config;
-  }
-  ~DaemonProcess() { Kill(SIGKILL); }
-
-  void Start() {
-    const char* bin = std::getenv("MONOMESHD");
-    ASSERT_NE(bin, nullptr) << "MONOMESHD is not set (run through ctest)";
-    const std::string config = (dir_ / "monomeshd.toml").string();
-    const std::string log = (dir_ / "daemon.log").string();
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    std::vector<std::string> args{bin, "--config", config};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ASSERT_EQ(posix_spawn(&pid_, bin, &actions, nullptr, argv.data(), environ), 0);
-    posix_spawn_file_actions_destroy(&actions);
-    // Ready when the socket answers and the camera has delivered a frame.
-    for (int i = 0; i < 400; ++i) {
-      try {
-        const json s = Status();
-        if (s["camera"]["frames"].get<uint64_t>() > 0) return;
-      } catch (const ControlError&) {
-      }
-      std::this_thread::sleep_for(25ms);
-    }
-    FAIL() << "daemon did not become ready; log:\n" << ReadAll(log);
-  }
-
-  int Kill(int sig) {
-    if (pid_ <= 0) return -1;
-    ::kill(pid_, sig);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-    pid_ = -1;
-    return status;
-  }
-
-  json Command(const std::string& c) { return json::parse(SendControlCommand(socket(), c, 5s)); }
-  json Status() { return Command("status"); }
-
-  // Triggers and waits for this capture's result.
-  json TriggerAndWait(std::chrono::seconds timeout) {
-    const json reply = Command("trigger");
-    EXPECT_TRUE(reply.value("ok", false)) << reply.dump();
-    const uint64_t id = reply.value("capture", uint64_t{0});
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      const json last = Status()["last_result"];
-      if (last.is_object() && last["capture"].get<uint64_t>() == id) return last;
-      std::this_thread::sleep_for(50ms);
-    }
-    ADD_FAILURE() << "capture " << id << " did not finish; log:\n" << log();
-    return json();
-  }
-
-  fs::path socket() const { return dir_ / "control.sock"; }
-  fs::path spool() const { return dir_ / "spool"; }
-  std::string log() const { return ReadAll(dir_ / "daemon.log"); }
-  const fs::path& dir() const { return dir_; }
-
- private:
-  fs::path dir_;
-  pid_t pid_ = -1;
-};
-
-std::vector<fs::path> VisibleEntries(const fs::path& spool) {
-  std::vector<fs::path> out;
-  for (const auto& item : fs::directory_iterator(spool)) {
-    if (item.path().filename().string()[0] != '.') out.push_back(item.path());
-  }
-  return out;
-}
-
-void ExpectCompleteEntry(const fs::path& entry) {
-  for (const char* f : kEntryFiles) {
-    EXPECT_TRUE(fs::exists(entry / f)) << entry << " lacks " << f;
-  }
-  json report;
-  EXPECT_NO_THROW(report = json::parse(ReadAll(entry / "report.json"))) << entry;
-  EXPECT_TRUE(report.value("success", false)) << entry;
-}
 
 TEST(Daemon, TriggerProducesCompleteEntryMatchingGroundTruth) {
   DaemonProcess daemon("e2e", "rate=realtime&speed=4&loop=0");
@@ -251,5 +129,111 @@ TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
   EXPECT_NE(log.find("/nonexistent/cam"), std::string::npos) << log;
 }
 
+// A copy of the bundled dataset the test may move away and back.
+fs::path CopyOfBundledData(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::copy(kData, dir, fs::copy_options::recursive);
+  return dir;
+}
+
+// Rotation only (homography warps K R K^-1 of one keyframe, up to 9 deg of yaw, ~90 px of image
+// motion) at 30 fps: the gate never takes keyframe B, even with a small threshold.
+TEST(Daemon, RotationOnlySequenceNeverTakesKeyframeB) {
+  const fs::path dir = fs::temp_directory_path() / ("mm_rotation_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "rgb");
+  const cv::Mat a = cv::imread((kData / "rgb/1341847982.730674.png").string());
+  Eigen::Matrix3d k;
+  k << 535.4, 0, 320.1, 0, 539.2, 247.6, 0, 0, 1;
+  std::ofstream list(dir / "rgb.txt");
+  for (int i = 0; i <= 30; ++i) {
+    const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.3 * i * M_PI / 180, Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(0.1 * i * M_PI / 180, Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+    const Eigen::Matrix3d h = k * r * k.inverse();
+    cv::Mat h_cv(3, 3, CV_64F);
+    for (int y = 0; y < 3; ++y) {
+      for (int x = 0; x < 3; ++x) h_cv.at<double>(y, x) = h(y, x);
+    }
+    cv::Mat warped;
+    cv::warpPerspective(a, warped, h_cv, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    const std::string file = "rgb/" + std::to_string(i) + ".png";
+    cv::imwrite((dir / file).string(), warped);
+    list << 1000.0 + i / 30.0 << " " << file << "\n";
+  }
+  list.close();
+  fs::copy_file(kData / "calib.toml", dir / "calib.toml");
+  DaemonProcess daemon("rotation", "rate=realtime&loop=0",
+                       "[keyframes]\nparallax_deg = 0.05\ntimeout_s = 3.0\n", dir);
+  daemon.Start();
+  const json result = daemon.TriggerAndWait(30s);
+  EXPECT_FALSE(result.value("ok", true)) << result.dump();
+  EXPECT_NE(result.value("error", "").find("not enough motion"), std::string::npos)
+      << result.dump() << "\n" << daemon.log();
+  EXPECT_EQ(daemon.log().find("keyframe B ="), std::string::npos) << daemon.log();
+  EXPECT_TRUE(VisibleEntries(daemon.spool()).empty());
+}
+
+// The camera (here the replay folder) disappears mid-run and comes back: errors are reported,
+// frames resume and a capture succeeds, all without a restart.
+TEST(Daemon, SurvivesCameraDisappearingAndReturning) {
+  const fs::path data = CopyOfBundledData("vanish");
+  DaemonProcess daemon("vanish", "rate=realtime&speed=8&loop=1", "", data);
+  daemon.Start();
+  const fs::path away = data.string() + ".away";
+  fs::rename(data / "rgb", away);
+  std::this_thread::sleep_for(1s);
+  const json gone = daemon.Status()["camera"];
+  EXPECT_GT(gone["errors"].get<int>(), 0) << gone.dump();
+  EXPECT_NE(gone["last_error"].get<std::string>().find(data.string()), std::string::npos)
+      << gone.dump();
+  fs::rename(away, data / "rgb");
+  const uint64_t frames_before = daemon.Status()["camera"]["frames"].get<uint64_t>();
+  std::this_thread::sleep_for(1s);
+  EXPECT_GT(daemon.Status()["camera"]["frames"].get<uint64_t>(), frames_before);
+  json result = json::object();
+  for (int attempt = 0; attempt < 5 && !result.value("ok", false); ++attempt) {
+    result = daemon.TriggerAndWait(60s);
+  }
+  EXPECT_TRUE(result.value("ok", false)) << result.dump() << "\n" << daemon.log();
+}
+
+// A spool on a small filesystem that fills up: the failure is reported (status and log), the
+// earlier entries are intact, nothing half-written is left, and the daemon keeps serving.
+TEST(Daemon, FullDiskIsReportedAndEarlierEntriesSurvive) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to mount a small tmpfs";
+  DaemonProcess daemon("fulldisk", "rate=realtime&speed=8&loop=1");
+  fs::create_directories(daemon.spool());
+  // One entry of the bundled pair is ~0.5 MB: room for one, not two.
+  ASSERT_EQ(::mount("tmpfs", daemon.spool().c_str(), "tmpfs", 0, "size=900k"), 0)
+      << std::strerror(errno);
+  struct Unmount {
+    fs::path path;
+    ~Unmount() { ::umount2(path.c_str(), MNT_DETACH); }
+  } unmount{daemon.spool()};
+  daemon.Start();
+  std::vector<json> results;
+  for (int i = 0; i < 8; ++i) {
+    results.push_back(daemon.TriggerAndWait(60s));
+    if (!results.back().value("ok", true) &&
+        results.back().value("error", "").find("spool write failed") != std::string::npos) {
+      break;
+    }
+  }
+  const json& last = results.back();
+  ASSERT_NE(last.value("error", "").find("No space left on device"), std::string::npos)
+      << last.dump() << "\n" << daemon.log();
+  EXPECT_NE(daemon.log().find("spool write failed"), std::string::npos);
+  const auto entries = VisibleEntries(daemon.spool());
+  EXPECT_GE(entries.size(), 1u);
+  for (const fs::path& entry : entries) ExpectCompleteEntry(entry);
+  for (const auto& item : fs::directory_iterator(daemon.spool())) {
+    EXPECT_NE(item.path().filename().string().rfind(".tmp-", 0), 0u) << item.path();
+  }
+  EXPECT_EQ(daemon.Status()["state"], "idle");  // Still serving.
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+}
+
 }  // namespace
-}  // namespace mm
+}  // namespace mm::test

@@ -1,0 +1,143 @@
+#pragma once
+// A monomeshd process for integration tests: its own folder, config, control socket and spool;
+// started with posix_spawn, driven over the control socket, killed on destruction.
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "app/control.h"
+
+extern char** environ;
+
+namespace mm::test {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using namespace std::chrono_literals;
+
+inline const fs::path kData = fs::path(MM_SOURCE_DIR) / "data/tum_office";
+inline const char* const kEntryFiles[] = {"mesh.ply",    "mesh.obj",         "mesh.mtl",
+                                   "texture.jpg", "calibration.toml", "report.json"};
+
+inline std::string ReadAll(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A daemon process with its own folder, config, socket and spool; killed on destruction.
+class DaemonProcess {
+ public:
+  DaemonProcess(const std::string& name, const std::string& camera_query,
+                const std::string& extra_config = "", const fs::path& camera_dir = kData,
+                const std::string& spool_keys = "") {
+    dir_ = fs::temp_directory_path() / ("mm_daemon_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    std::ofstream(dir_ / "monomeshd.toml")
+        << "[camera]\nuri = \"replay:" << camera_dir.string() << "?" << camera_query << "\"\n"
+        << "calibration = \"" << (kData / "calib.toml").string() << "\"\n"
+        << "[control]\nsocket = \"" << socket().string() << "\"\n"
+        << "[spool]\ndir = \"" << spool().string() << "\"\n"
+        << spool_keys
+        << extra_config;
+  }
+  ~DaemonProcess() { Kill(SIGKILL); }
+
+  void Start() {
+    const char* bin = std::getenv("MONOMESHD");
+    ASSERT_NE(bin, nullptr) << "MONOMESHD is not set (run through ctest)";
+    const std::string config = (dir_ / "monomeshd.toml").string();
+    const std::string log = (dir_ / "daemon.log").string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    std::vector<std::string> args{bin, "--config", config};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ASSERT_EQ(posix_spawn(&pid_, bin, &actions, nullptr, argv.data(), environ), 0);
+    posix_spawn_file_actions_destroy(&actions);
+    // Ready when the socket answers and the camera has delivered a frame.
+    for (int i = 0; i < 400; ++i) {
+      try {
+        const json s = Status();
+        if (s["camera"]["frames"].get<uint64_t>() > 0) return;
+      } catch (const ControlError&) {
+      }
+      std::this_thread::sleep_for(25ms);
+    }
+    FAIL() << "daemon did not become ready; log:\n" << ReadAll(log);
+  }
+
+  pid_t pid() const { return pid_; }
+
+  int Kill(int sig) {
+    if (pid_ <= 0) return -1;
+    ::kill(pid_, sig);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return status;
+  }
+
+  json Command(const std::string& c) { return json::parse(SendControlCommand(socket(), c, 5s)); }
+  json Status() { return Command("status"); }
+
+  // Triggers and waits for this capture's result.
+  json TriggerAndWait(std::chrono::seconds timeout) {
+    const json reply = Command("trigger");
+    EXPECT_TRUE(reply.value("ok", false)) << reply.dump();
+    const uint64_t id = reply.value("capture", uint64_t{0});
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      const json last = Status()["last_result"];
+      if (last.is_object() && last["capture"].get<uint64_t>() == id) return last;
+      std::this_thread::sleep_for(50ms);
+    }
+    ADD_FAILURE() << "capture " << id << " did not finish; log:\n" << log();
+    return json();
+  }
+
+  fs::path socket() const { return dir_ / "control.sock"; }
+  fs::path spool() const { return dir_ / "spool"; }
+  std::string log() const { return ReadAll(dir_ / "daemon.log"); }
+  const fs::path& dir() const { return dir_; }
+
+ private:
+  fs::path dir_;
+  pid_t pid_ = -1;
+};
+
+inline std::vector<fs::path> VisibleEntries(const fs::path& spool) {
+  std::vector<fs::path> out;
+  for (const auto& item : fs::directory_iterator(spool)) {
+    if (item.path().filename().string()[0] != '.') out.push_back(item.path());
+  }
+  return out;
+}
+
+inline void ExpectCompleteEntry(const fs::path& entry) {
+  for (const char* f : kEntryFiles) {
+    EXPECT_TRUE(fs::exists(entry / f)) << entry << " lacks " << f;
+  }
+  json report;
+  EXPECT_NO_THROW(report = json::parse(ReadAll(entry / "report.json"))) << entry;
+  EXPECT_TRUE(report.value("success", false)) << entry;
+}
+
+}  // namespace mm::test
