@@ -2,7 +2,8 @@
 #include <string>
 
 namespace mm {
-/// Logs to stderr for journald: "<level> message" without our own timestamps when stderr is
-/// not a terminal (journald stamps lines), with timestamps on a terminal.
+/// Logs to stderr at `level` (trace|debug|info|warn|error). Under systemd (JOURNAL_STREAM set)
+/// each line starts with its syslog priority "<N>" so journald files it at that level; on a
+/// terminal lines carry timestamps; otherwise "level message".
 void SetupLogging(const std::string& level);
 }  // namespace mm
