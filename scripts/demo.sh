@@ -8,7 +8,7 @@ root="$PWD"
 scripts/build.sh default
 
 demo="$root/build/demo"
-spool="$root/spool"
+spool="$root/build/demo/spool"
 mkdir -p "$demo"
 cat > "$demo/monomeshd.toml" <<TOML
 # Written by scripts/demo.sh: the bundled dataset as a camera at 1x speed, a local spool.
