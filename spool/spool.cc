@@ -1,0 +1,164 @@
+#include "spool/spool.h"
+
+#include "base/unique_fd.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <system_error>
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ErrnoText(int err) { return std::strerror(err); }
+
+// Returns an empty string or "<path>: <what>: <strerror>".
+std::string WriteFileDurably(const fs::path& path, const std::string& bytes) {
+  UniqueFd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  if (fd.get() < 0) return path.string() + ": create: " + ErrnoText(errno);
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd.get(), bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return path.string() + ": write: " + ErrnoText(errno);
+    }
+    done += static_cast<size_t>(n);
+  }
+  if (::fsync(fd.get()) != 0) return path.string() + ": fsync: " + ErrnoText(errno);
+  if (fd.Close() != 0) return path.string() + ": close: " + ErrnoText(errno);
+  return {};
+}
+
+std::string FsyncDir(const fs::path& dir) {
+  UniqueFd fd(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  if (fd.get() < 0) return dir.string() + ": open: " + ErrnoText(errno);
+  if (::fsync(fd.get()) != 0) return dir.string() + ": fsync: " + ErrnoText(errno);
+  return {};
+}
+
+bool IsEntryName(const std::string& name) { return !name.empty() && name[0] != '.'; }
+
+// The sequence number after the last '-' of an entry name, or 0.
+uint64_t SequenceOf(const std::string& name) {
+  const auto dash = name.rfind('-');
+  if (dash == std::string::npos) return 0;
+  try {
+    return std::stoull(name.substr(dash + 1));
+  } catch (...) {
+    return 0;
+  }
+}
+
+}  // namespace
+
+std::string SpoolOptions::Check() const {
+  if (dir.empty()) return "dir: must name a folder";
+  if (max_entries < 0) return "max_entries: must be >= 0";
+  return {};
+}
+
+Spool::Spool(SpoolOptions options) : options_(std::move(options)) {}
+
+std::string Spool::Recover(int* removed_leftovers) {
+  std::error_code ec;
+  fs::create_directories(options_.dir, ec);
+  if (ec) return "spool " + options_.dir.string() + ": cannot create: " + ec.message();
+  int removed = 0;
+  uint64_t max_sequence = 0;
+  for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
+    const std::string name = item.path().filename().string();
+    if (name.rfind(kTempPrefix, 0) == 0) {
+      fs::remove_all(item.path(), ec);
+      if (ec) return "spool: cannot remove leftover " + item.path().string() + ": " + ec.message();
+      ++removed;
+    } else if (IsEntryName(name)) {
+      max_sequence = std::max(max_sequence, SequenceOf(name));
+    }
+  }
+  if (ec) return "spool " + options_.dir.string() + ": cannot list: " + ec.message();
+  next_sequence_ = max_sequence + 1;
+  if (removed_leftovers != nullptr) *removed_leftovers = removed;
+  return removed > 0 ? FsyncDir(options_.dir) : std::string();
+}
+
+std::vector<fs::path> Spool::Entries() const {
+  std::vector<fs::path> entries;
+  std::error_code ec;
+  for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
+    if (item.is_directory() && IsEntryName(item.path().filename().string())) {
+      entries.push_back(item.path());
+    }
+  }
+  std::sort(entries.begin(), entries.end(), [](const fs::path& a, const fs::path& b) {
+    return SequenceOf(a.filename().string()) < SequenceOf(b.filename().string());
+  });
+  return entries;
+}
+
+SpoolCommit Spool::Commit(const std::vector<SpoolFile>& files, std::time_t when) {
+  SpoolCommit result;
+  std::tm utc{};
+  gmtime_r(&when, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof(stamp), "%Y%m%dT%H%M%SZ", &utc);
+  char name[64];
+  std::snprintf(name, sizeof(name), "%s-%06llu", stamp,
+                static_cast<unsigned long long>(next_sequence_));
+  const fs::path temp = options_.dir / (std::string(kTempPrefix) + name);
+  const fs::path final_path = options_.dir / name;
+
+  auto fail = [&](std::string error) {
+    std::error_code ignored;
+    fs::remove_all(temp, ignored);
+    result.error = std::move(error);
+    return result;
+  };
+
+  if (::mkdir(temp.c_str(), 0755) != 0) {
+    return fail(temp.string() + ": mkdir: " + ErrnoText(errno));
+  }
+  for (const SpoolFile& file : files) {
+    if (file.name.empty() || file.name.find('/') != std::string::npos || file.name[0] == '.') {
+      return fail("spool: invalid entry file name '" + file.name + "'");
+    }
+    if (std::string error = WriteFileDurably(temp / file.name, file.bytes); !error.empty()) {
+      return fail(error);
+    }
+    result.bytes += file.bytes.size();
+  }
+  if (std::string error = FsyncDir(temp); !error.empty()) return fail(error);
+  if (::rename(temp.c_str(), final_path.c_str()) != 0) {
+    return fail(final_path.string() + ": rename: " + ErrnoText(errno));
+  }
+  ++next_sequence_;
+  result.ok = true;
+  result.entry = final_path;
+  if (std::string error = FsyncDir(options_.dir); !error.empty()) {
+    // The entry is complete and visible; only its durability across power loss is in doubt.
+    result.error = error;
+  }
+
+  if (options_.max_entries > 0) {
+    auto entries = Entries();
+    std::error_code ec;
+    for (size_t i = 0; i + static_cast<size_t>(options_.max_entries) < entries.size(); ++i) {
+      // Rename out of sight first so a watcher never sees a half-deleted entry.
+      const fs::path doomed = options_.dir / (std::string(kTempPrefix) + "del-" +
+                                              entries[i].filename().string());
+      fs::rename(entries[i], doomed, ec);
+      if (!ec) fs::remove_all(doomed, ec);
+      if (!ec) ++result.removed_by_retention;
+    }
+  }
+  return result;
+}
+
+}  // namespace mm

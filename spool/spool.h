@@ -1,0 +1,60 @@
+#pragma once
+// The spool: a folder other programs watch. Each capture becomes one entry
+// `<spool>/<UTC time>-<seq>/` that appears whole or not at all: its files are written into
+// `<spool>/.tmp-<name>/`, each fsynced, the folder fsynced, then renamed into place and the
+// spool folder fsynced (rename(2) is atomic within a filesystem). Watchers ignore dot-names.
+// Leftovers of a crash (.tmp-*) are removed by Recover() at start.
+//
+// Thread-safety: thread-bound (one writer per spool folder).
+
+#include <cstdint>
+#include <ctime>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace mm {
+
+struct SpoolFile {
+  std::string name;   ///< File name inside the entry (no folders).
+  std::string bytes;  ///< Content.
+};
+
+struct SpoolOptions {
+  std::filesystem::path dir;  ///< The spool folder (created if missing).
+  int max_entries = 0;        ///< Keep at most this many entries, oldest removed first; 0 = all.
+  [[nodiscard]] std::string Check() const;
+};
+
+struct SpoolCommit {
+  bool ok = false;
+  std::filesystem::path entry;  ///< The final entry folder when ok.
+  std::string error;            ///< What failed (names the file and the errno text).
+  uint64_t bytes = 0;
+  int removed_by_retention = 0;
+};
+
+class Spool {
+ public:
+  explicit Spool(SpoolOptions options);
+
+  /// Creates the spool folder and removes leftovers of an interrupted write. Returns an empty
+  /// string or a message naming the folder and the error.
+  std::string Recover(int* removed_leftovers = nullptr);
+
+  /// Writes an entry named `<UTC time of when>-<next sequence>` atomically. On failure
+  /// (e.g. ENOSPC) the temporary folder is removed and earlier entries are untouched.
+  SpoolCommit Commit(const std::vector<SpoolFile>& files, std::time_t when);
+
+  /// Committed entries, oldest first.
+  [[nodiscard]] std::vector<std::filesystem::path> Entries() const;
+  [[nodiscard]] const std::filesystem::path& dir() const { return options_.dir; }
+
+  static constexpr const char* kTempPrefix = ".tmp-";
+
+ private:
+  SpoolOptions options_;
+  uint64_t next_sequence_ = 1;
+};
+
+}  // namespace mm

@@ -1,0 +1,145 @@
+#include "spool/spool.h"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("mm_spool_" + name + "_" +
+                                                    std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+std::string ReadAll(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(Spool, CommitsWholeEntryWithIncreasingSequence) {
+  const fs::path dir = FreshDir("commit");
+  Spool spool({.dir = dir, .max_entries = 0});
+  ASSERT_EQ(spool.Recover(), "");
+  const SpoolCommit a = spool.Commit({{"report.json", "{}"}, {"mesh.ply", "ply"}}, 0);
+  ASSERT_TRUE(a.ok) << a.error;
+  EXPECT_EQ(a.entry.filename().string(), "19700101T000000Z-000001");
+  EXPECT_EQ(ReadAll(a.entry / "mesh.ply"), "ply");
+  EXPECT_EQ(a.bytes, 5u);
+  const SpoolCommit b = spool.Commit({{"report.json", "{}"}}, 60);
+  ASSERT_TRUE(b.ok);
+  EXPECT_EQ(b.entry.filename().string(), "19700101T000100Z-000002");
+  // A restarted daemon continues the sequence.
+  Spool again({.dir = dir, .max_entries = 0});
+  ASSERT_EQ(again.Recover(), "");
+  EXPECT_EQ(again.Commit({{"x", "1"}}, 0).entry.filename().string(), "19700101T000000Z-000003");
+  EXPECT_EQ(again.Entries().size(), 3u);
+}
+
+TEST(Spool, RejectsBadFileNamesWithoutLeavingAnything) {
+  const fs::path dir = FreshDir("names");
+  Spool spool({.dir = dir, .max_entries = 0});
+  ASSERT_EQ(spool.Recover(), "");
+  const SpoolCommit c = spool.Commit({{"ok.txt", "1"}, {"../escape", "2"}}, 0);
+  EXPECT_FALSE(c.ok);
+  EXPECT_NE(c.error.find("../escape"), std::string::npos);
+  EXPECT_TRUE(fs::is_empty(dir));
+}
+
+TEST(Spool, RetentionKeepsNewest) {
+  const fs::path dir = FreshDir("retention");
+  Spool spool({.dir = dir, .max_entries = 2});
+  ASSERT_EQ(spool.Recover(), "");
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(spool.Commit({{"f", std::to_string(i)}}, i).ok);
+  const auto entries = spool.Entries();
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_EQ(ReadAll(entries[0] / "f"), "2");
+  EXPECT_EQ(ReadAll(entries[1] / "f"), "3");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
+}
+
+// A writer killed with SIGKILL in the middle of an entry leaves nothing visible; Recover()
+// removes its leftovers.
+TEST(Spool, KillDuringWriteLeavesNoVisibleEntry) {
+  const fs::path dir = FreshDir("kill");
+  {
+    Spool spool({.dir = dir, .max_entries = 0});
+    ASSERT_EQ(spool.Recover(), "");
+  }
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    Spool spool({.dir = dir, .max_entries = 0});
+    spool.Recover();
+    std::vector<SpoolFile> files;
+    for (int i = 0; i < 100; ++i) {
+      files.push_back({"part" + std::to_string(i), std::string(1 << 20, 'x')});
+    }
+    spool.Commit(files, 0);
+    ::_exit(0);
+  }
+  bool saw_temp = false;
+  for (int i = 0; i < 20000 && !saw_temp; ++i) {
+    for (const auto& item : fs::directory_iterator(dir)) {
+      if (item.path().filename().string().rfind(Spool::kTempPrefix, 0) == 0 &&
+          fs::exists(item.path() / "part1")) {
+        saw_temp = true;
+      }
+    }
+    if (!saw_temp) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(saw_temp) << "the writer never started its entry";
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the writer finished before it was killed";
+  Spool spool({.dir = dir, .max_entries = 0});
+  EXPECT_TRUE(spool.Entries().empty());
+  int removed = 0;
+  ASSERT_EQ(spool.Recover(&removed), "");
+  EXPECT_EQ(removed, 1);
+  EXPECT_TRUE(fs::is_empty(dir));
+}
+
+// A write that fails half-way (here: the file size limit, as a full disk would) is reported
+// with the file name and leaves earlier entries intact.
+TEST(Spool, FailedWriteIsReportedAndEarlierEntriesSurvive) {
+  const fs::path dir = FreshDir("full");
+  Spool spool({.dir = dir, .max_entries = 0});
+  ASSERT_EQ(spool.Recover(), "");
+  ASSERT_TRUE(spool.Commit({{"a", "first"}}, 0).ok);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit{4096, 4096};
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+    const SpoolCommit c = spool.Commit({{"small", "x"}, {"big.obj", std::string(8192, 'y')}}, 0);
+    const bool reported = !c.ok && c.error.find("big.obj") != std::string::npos;
+    ::_exit(reported ? 0 : 1);
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the failed write was not reported with the file name";
+  const auto entries = spool.Entries();
+  ASSERT_EQ(entries.size(), 1u);
+  EXPECT_EQ(ReadAll(entries[0] / "a"), "first");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+}
+
+}  // namespace
+}  // namespace mm
