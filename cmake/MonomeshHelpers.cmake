@@ -10,6 +10,15 @@ if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
   list(APPEND MM_WARNINGS -Wno-psabi)
 endif()
 
+# Aggregate targets, so a build can ask for exactly what it needs (the cross stage of .ci/run
+# builds `mm_libraries monomeshd monomesh mm_unit_tests`, not the integration tests or benchmarks):
+#   mm_libraries   every library made by mm_add_library
+#   mm_unit_tests  every test executable made by mm_add_test with the label "unit" (the default)
+if(NOT TARGET mm_libraries)
+  add_custom_target(mm_libraries)
+  add_custom_target(mm_unit_tests)
+endif()
+
 # mm_add_library(NAME SOURCES ... [PUBLIC_LINK ...] [PRIVATE_LINK ...])
 # Headers are included as "<folder>/<file>.h" from the repository root.
 function(mm_add_library name)
@@ -19,6 +28,7 @@ function(mm_add_library name)
   target_compile_options(${name} PRIVATE ${MM_WARNINGS})
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_LINK} PRIVATE ${ARG_PRIVATE_LINK})
   set_target_properties(${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  add_dependencies(mm_libraries ${name})
 endfunction()
 
 # mm_add_executable(NAME SOURCES ... [LINK ...])
@@ -51,6 +61,9 @@ function(mm_add_test folder name)
   endif()
   set_tests_properties(${folder}/${name} PROPERTIES
     SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}")
+  if("unit" IN_LIST labels)
+    add_dependencies(mm_unit_tests ${target})
+  endif()
 endfunction()
 
 # Collects every target that `target` links, transitively.
