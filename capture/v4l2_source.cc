@@ -6,6 +6,7 @@
 #include <sys/ioctl.h>
 #include <sys/mman.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -107,20 +108,27 @@ std::string V4l2Options::Check() const {
 
 std::string DescribeOffers(const std::vector<V4l2FormatOffer>& offers) {
   if (offers.empty()) return "no capture formats";
-  std::string out;
+  std::string out, others;
   for (const V4l2FormatOffer& o : offers) {
+    if (!FromFourcc(o.fourcc)) {  // Named only: this build cannot convert it.
+      others += (others.empty() ? "" : " ") + FourccName(o.fourcc);
+      continue;
+    }
     if (!out.empty()) out += "; ";
     out += FourccName(o.fourcc);
-    if (!FromFourcc(o.fourcc)) out += " (unsupported)";
     if (!o.stepwise.empty()) out += " " + o.stepwise;
     bool first = true;
     for (const auto& s : o.sizes) {
       out += first ? " " : ", ";
       first = false;
       out += std::to_string(s.width) + "x" + std::to_string(s.height);
-      for (size_t k = 0; k < s.fps.size(); ++k) out += (k ? "/" : "@") + FpsText(s.fps[k]);
+      if (s.fps.empty()) continue;
+      const auto [lo, hi] = std::minmax_element(s.fps.begin(), s.fps.end());
+      out += "@" + (*lo == *hi ? FpsText(*hi) : FpsText(*lo) + "-" + FpsText(*hi)) + "fps";
     }
   }
+  if (out.empty()) out = "no format this build converts";
+  if (!others.empty()) out += "; not convertible: " + others;
   return out;
 }
 

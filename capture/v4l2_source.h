@@ -51,7 +51,8 @@ struct V4l2FormatOffer {
   std::string stepwise;     ///< e.g. "16x16-1920x1080 step 2x2" when not discrete.
 };
 
-/// Human summary, e.g. "YUYV 640x480@30/15, 1280x720@10; MJPG 1280x720@30".
+/// Human summary, e.g. "YUYV 640x480@15-30fps, 1280x720@10fps; MJPG 1280x720@30fps;
+/// not convertible: RGB3 UYVY".
 std::string DescribeOffers(const std::vector<V4l2FormatOffer>& offers);
 
 class V4l2Source final : public FrameSource {

@@ -83,7 +83,7 @@ TEST(DescribeOffers, ListsFormatsSizesAndRates) {
   rgb.fourcc = V4L2_PIX_FMT_RGB24;
   rgb.stepwise = "16x16-1920x1080 step 2x2";
   EXPECT_EQ(DescribeOffers({yuyv, rgb}),
-            "YUYV 640x480@30/15, 1280x720@10; RGB3 (unsupported) 16x16-1920x1080 step 2x2");
+            "YUYV 640x480@15-30fps, 1280x720@10fps; not convertible: RGB3");
   EXPECT_EQ(DescribeOffers({}), "no capture formats");
 }
 
