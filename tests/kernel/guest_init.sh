@@ -6,7 +6,6 @@ export PATH=/bin
 mount -t proc proc /proc
 mount -t sysfs sys /sys
 mount -t devtmpfs dev /dev
-mount -t configfs configfs /sys/kernel/config 2>/dev/null
 echo "GUEST up $(uname -r)"
 
 load() { modprobe "$@" 2>&1 | sed 's/^/GUEST modprobe: /'; }
@@ -25,7 +24,9 @@ run vivid --device /dev/video0 --format grey
 run errors --device /dev/video0
 
 # 3. gpio-sim: one chip, 8 lines; line 3 is the button.
-if load gpio-sim-oot && [ -d /sys/kernel/config/gpio-sim ]; then
+load gpio-sim-oot  # Pulls configfs (a module in Debian's kernel): mount it afterwards.
+mount -t configfs configfs /sys/kernel/config
+if [ -d /sys/kernel/config/gpio-sim ]; then
   cfg=/sys/kernel/config/gpio-sim/mm
   mkdir $cfg $cfg/bank0 $cfg/bank0/line3
   echo 8 > $cfg/bank0/num_lines
