@@ -15,6 +15,8 @@ uint32_t ToFourcc(PixelFormat format) {
     case PixelFormat::kYuyv: return V4L2_PIX_FMT_YUYV;
     case PixelFormat::kNv12: return V4L2_PIX_FMT_NV12;
     case PixelFormat::kMjpeg: return V4L2_PIX_FMT_MJPEG;
+    case PixelFormat::kBgr24: return V4L2_PIX_FMT_BGR24;
+    case PixelFormat::kRgb24: return V4L2_PIX_FMT_RGB24;
   }
   return 0;
 }
@@ -26,6 +28,8 @@ std::optional<PixelFormat> FromFourcc(uint32_t fourcc) {
     case V4L2_PIX_FMT_NV12: return PixelFormat::kNv12;
     case V4L2_PIX_FMT_MJPEG: return PixelFormat::kMjpeg;
     case V4L2_PIX_FMT_JPEG: return PixelFormat::kMjpeg;
+    case V4L2_PIX_FMT_BGR24: return PixelFormat::kBgr24;
+    case V4L2_PIX_FMT_RGB24: return PixelFormat::kRgb24;
     default: return std::nullopt;
   }
 }
@@ -46,6 +50,8 @@ std::string PixelFormatName(PixelFormat format) {
     case PixelFormat::kYuyv: return "yuyv";
     case PixelFormat::kNv12: return "nv12";
     case PixelFormat::kMjpeg: return "mjpeg";
+    case PixelFormat::kBgr24: return "bgr24";
+    case PixelFormat::kRgb24: return "rgb24";
   }
   return "?";
 }
@@ -57,6 +63,8 @@ std::optional<PixelFormat> ParsePixelFormat(const std::string& name) {
   if (n == "yuyv" || n == "yuy2") return PixelFormat::kYuyv;
   if (n == "nv12") return PixelFormat::kNv12;
   if (n == "mjpeg" || n == "mjpg" || n == "jpeg") return PixelFormat::kMjpeg;
+  if (n == "bgr24" || n == "bgr3") return PixelFormat::kBgr24;
+  if (n == "rgb24" || n == "rgb3") return PixelFormat::kRgb24;
   return std::nullopt;
 }
 
@@ -67,6 +75,8 @@ size_t FrameBytes(PixelFormat format, int width, int height) {
     case PixelFormat::kYuyv: return 2 * w * h;
     case PixelFormat::kNv12: return w * h + w * h / 2;
     case PixelFormat::kMjpeg: return 0;
+    case PixelFormat::kBgr24:
+    case PixelFormat::kRgb24: return 3 * w * h;
   }
   return 0;
 }
@@ -76,7 +86,9 @@ std::string ConvertRaw(PixelFormat format, const uint8_t* data, size_t size, int
   if (width <= 0 || height <= 0) return "bad frame size " + std::to_string(width) + "x" +
                                         std::to_string(height);
   const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height);
-  const size_t min_stride = format == PixelFormat::kYuyv ? 2 * w : w;
+  const size_t min_stride = format == PixelFormat::kYuyv                                 ? 2 * w
+                            : format == PixelFormat::kBgr24 || format == PixelFormat::kRgb24 ? 3 * w
+                                                                                             : w;
   if (stride == 0) stride = min_stride;
   if (stride < min_stride) {
     return "line stride " + std::to_string(stride) + " < " + std::to_string(min_stride);
@@ -127,6 +139,18 @@ std::string ConvertRaw(PixelFormat format, const uint8_t* data, size_t size, int
       } else {
         const cv::Mat chroma(height / 2, width / 2, CV_8UC2, base + stride * h, stride);
         cv::cvtColorTwoPlane(luma, chroma, *out, cv::COLOR_YUV2BGR_NV12);
+      }
+      return {};
+    }
+    case PixelFormat::kBgr24:
+    case PixelFormat::kRgb24: {
+      const cv::Mat src(height, width, CV_8UC3, base, stride);
+      if (gray) {
+        cv::cvtColor(src, *out, format == PixelFormat::kBgr24 ? cv::COLOR_BGR2GRAY : cv::COLOR_RGB2GRAY);
+      } else if (format == PixelFormat::kBgr24) {
+        src.copyTo(*out);
+      } else {
+        cv::cvtColor(src, *out, cv::COLOR_RGB2BGR);
       }
       return {};
     }

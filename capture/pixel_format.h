@@ -12,7 +12,14 @@
 namespace mm {
 
 /// The formats mm_capture understands.
-enum class PixelFormat { kGrey, kYuyv, kNv12, kMjpeg };
+enum class PixelFormat {
+  kGrey,
+  kYuyv,
+  kNv12,
+  kMjpeg,
+  kBgr24,  ///< Packed, bytes B,G,R (V4L2 BGR3; libcamera RGB888).
+  kRgb24,  ///< Packed, bytes R,G,B (V4L2 RGB3; libcamera BGR888).
+};
 
 /// The V4L2 fourcc of a format.
 uint32_t ToFourcc(PixelFormat format);
@@ -20,9 +27,9 @@ uint32_t ToFourcc(PixelFormat format);
 std::optional<PixelFormat> FromFourcc(uint32_t fourcc);
 /// "GREY", "YUYV", "NV12", "MJPG", or the fourcc's four characters for any other code.
 std::string FourccName(uint32_t fourcc);
-/// Lower-case URI name: grey, yuyv, nv12, mjpeg.
+/// Lower-case URI name: grey, yuyv, nv12, mjpeg, bgr24, rgb24.
 std::string PixelFormatName(PixelFormat format);
-/// Parses grey|gray|yuyv|nv12|mjpeg|mjpg (case-insensitive).
+/// Parses grey|gray|yuyv|nv12|mjpeg|mjpg|bgr24|rgb24 (case-insensitive).
 std::optional<PixelFormat> ParsePixelFormat(const std::string& name);
 
 /// Bytes of one frame in `format` at the tightest stride (MJPEG: 0, its size varies).

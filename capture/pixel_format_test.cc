@@ -146,11 +146,13 @@ TEST(Fourcc, NamesAndParsing) {
   EXPECT_EQ(FourccName(V4L2_PIX_FMT_YUYV), "YUYV");
   EXPECT_EQ(FourccName(V4L2_PIX_FMT_MJPEG), "MJPG");
   EXPECT_EQ(FromFourcc(V4L2_PIX_FMT_NV12), PixelFormat::kNv12);
-  EXPECT_EQ(FromFourcc(V4L2_PIX_FMT_RGB24), std::nullopt);
+  EXPECT_EQ(FromFourcc(V4L2_PIX_FMT_RGB565), std::nullopt);
+  EXPECT_EQ(FromFourcc(V4L2_PIX_FMT_RGB24), PixelFormat::kRgb24);
   EXPECT_EQ(ParsePixelFormat("MJPEG"), PixelFormat::kMjpeg);
   EXPECT_EQ(ParsePixelFormat("gray"), PixelFormat::kGrey);
-  EXPECT_EQ(ParsePixelFormat("rgb3"), std::nullopt);
-  for (PixelFormat f : {PixelFormat::kGrey, PixelFormat::kYuyv, PixelFormat::kNv12, PixelFormat::kMjpeg}) {
+  EXPECT_EQ(ParsePixelFormat("rgb565"), std::nullopt);
+  for (PixelFormat f : {PixelFormat::kGrey, PixelFormat::kYuyv, PixelFormat::kNv12, PixelFormat::kMjpeg,
+                        PixelFormat::kBgr24, PixelFormat::kRgb24}) {
     EXPECT_EQ(FromFourcc(ToFourcc(f)), f);
     EXPECT_EQ(ParsePixelFormat(PixelFormatName(f)), f);
   }

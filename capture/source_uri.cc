@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <map>
 
+#include "capture/libcamera_source.h"
 #include "capture/replay_source.h"
 
 namespace mm {
@@ -82,7 +83,7 @@ V4l2Options ParseV4l2Uri(const std::string& uri) {
       o.format = ParsePixelFormat(value);
       if (!o.format) {
         throw SourceUriError("camera URI '" + uri + "': format=" + value +
-                             " is not supported (supported: grey, yuyv, nv12, mjpeg)");
+                             " is not supported (supported: grey, yuyv, nv12, mjpeg, bgr24, rgb24)");
       }
     } else if (key == "gray") {
       o.gray = ParseBool(uri, key, value);
@@ -140,8 +141,36 @@ std::unique_ptr<FrameSource> CreateFrameSource(const std::string& uri, const std
     return std::make_unique<ReplaySource>(folder.lexically_normal(), options);
   }
   if (p.scheme == "v4l2") return std::make_unique<V4l2Source>(ParseV4l2Uri(uri));
+  if (p.scheme == "libcamera") {
+    if (p.path.empty()) {
+      throw SourceUriError("camera URI '" + uri + "': libcamera needs a camera id or index, e.g. libcamera:0");
+    }
+    LibcameraOptions o;
+    o.camera = p.path;
+    for (const auto& [key, value] : p.params) {
+      if (key == "width") {
+        o.width = ParseNumber<int>(uri, key, value, 1, 16384);
+      } else if (key == "height") {
+        o.height = ParseNumber<int>(uri, key, value, 1, 16384);
+      } else if (key == "format") {
+        o.format = ParsePixelFormat(value);
+        if (!o.format) throw SourceUriError("camera URI '" + uri + "': format=" + value + " is not supported");
+      } else if (key == "gray") {
+        o.gray = ParseBool(uri, key, value);
+      } else if (key == "timeout_ms") {
+        o.lost_after_ms = ParseNumber<int>(uri, key, value, 100, 600000);
+      } else {
+        throw SourceUriError("camera URI '" + uri + "': unknown parameter '" + key +
+                             "' (libcamera takes width, height, format, gray, timeout_ms)");
+      }
+    }
+    if ((o.width == 0) != (o.height == 0)) {
+      throw SourceUriError("camera URI '" + uri + "': give both width and height");
+    }
+    return std::make_unique<LibcameraSource>(o);
+  }
   throw SourceUriError("camera URI '" + uri + "': unknown scheme '" + p.scheme +
-                       "' (this build supports: replay, v4l2)");
+                       "' (this build supports: replay, v4l2, libcamera)");
 }
 
 }  // namespace mm

@@ -3,6 +3,7 @@
 //   replay:<folder>?rate=realtime|max&speed=1&loop=0|1&list=rgb.txt&gray=0|1
 //   v4l2:/dev/video0?width=1280&height=720&fps=30&format=grey|yuyv|nv12|mjpeg&gray=0|1
 //        &exposure=N&gain=N&buffers=4&timeout_ms=3000
+//   libcamera:<camera id or index>?width=&height=&format=&gray=0|1&timeout_ms=3000
 
 #include <memory>
 #include <stdexcept>

@@ -209,7 +209,7 @@ std::string V4l2Source::OpenDevice() {
         break;
       }
     }
-    if (want == 0) return where + "no format this build can convert (GREY, YUYV, NV12, MJPG); " + offered;
+    if (want == 0) return where + "no format this build can convert (GREY, YUYV, NV12, MJPG, BGR3, RGB3); " + offered;
   }
   fmt.fmt.pix.pixelformat = want;
   if (options_.width > 0) {

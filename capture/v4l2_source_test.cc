@@ -41,7 +41,7 @@ std::string UriError(const std::string& uri) {
 }
 
 TEST(V4l2Uri, BadUrisNameTheProblem) {
-  EXPECT_NE(UriError("v4l2:/dev/video0?format=rgb24").find("format=rgb24 is not supported (supported: grey, yuyv, nv12, mjpeg)"),
+  EXPECT_NE(UriError("v4l2:/dev/video0?format=rgb565").find("format=rgb565 is not supported (supported: grey, yuyv, nv12, mjpeg, bgr24, rgb24)"),
             std::string::npos);
   EXPECT_NE(UriError("v4l2:/dev/video0?width=640").find("give both width and height"),
             std::string::npos);
@@ -80,11 +80,25 @@ TEST(DescribeOffers, ListsFormatsSizesAndRates) {
   yuyv.fourcc = V4L2_PIX_FMT_YUYV;
   yuyv.sizes = {{640, 480, {30, 15}}, {1280, 720, {10}}};
   V4l2FormatOffer rgb;
-  rgb.fourcc = V4L2_PIX_FMT_RGB24;
+  rgb.fourcc = V4L2_PIX_FMT_RGB565;
   rgb.stepwise = "16x16-1920x1080 step 2x2";
   EXPECT_EQ(DescribeOffers({yuyv, rgb}),
-            "YUYV 640x480@15-30fps, 1280x720@10fps; not convertible: RGB3");
+            "YUYV 640x480@15-30fps, 1280x720@10fps; not convertible: RGBP");
   EXPECT_EQ(DescribeOffers({}), "no capture formats");
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+TEST(LibcameraUri, MissingCameraIsNamedWithTheList) {
+  EXPECT_NE(UriError("libcamera:").find("needs a camera id or index"), std::string::npos);
+  EXPECT_NE(UriError("libcamera:0?zoom=1").find("unknown parameter 'zoom'"), std::string::npos);
+  auto source = CreateFrameSource("libcamera:no-such-camera?width=640&height=480");
+  const std::string e = source->Open();
+  EXPECT_NE(e.find("libcamera no-such-camera: no such camera (libcamera lists: "), std::string::npos) << e;
 }
 
 }  // namespace
