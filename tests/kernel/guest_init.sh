@@ -1,6 +1,6 @@
 #!/bin/busybox sh
 # /init of the qemu guest of tests/kernel/run.sh: loads the drivers, runs the checks in order
-# (v4l2loopback and vivid, gpio-sim, removal and recovery), prints one CHECK line each, powers off.
+# (v4l2loopback and vivid, gpio-sim, vimc via libcamera, removal and recovery), prints one CHECK line each, powers off.
 /bin/busybox --install -s /bin
 export PATH=/bin
 mount -t proc proc /proc
@@ -39,7 +39,16 @@ else
   echo "CHECK gpio-edges FAIL gpio-sim not available"
 fi
 
-# 4. Removal while streaming and recovery without a restart.
+# 4. vimc through libcamera (no udevd: write the udev database entries libcamera looks for).
+load vimc
+sleep 1
+mkdir -p /run/udev/data
+for d in /sys/bus/media/devices/* /sys/class/video4linux/*; do
+  [ -f "$d/dev" ] && echo "I:1" > "/run/udev/data/c$(cat "$d/dev")"
+done
+LIBCAMERA_LOG_LEVELS='*:ERROR' run libcamera --camera 'platform/vimc.0 Sensor B'
+
+# 5. Removal while streaming and recovery without a restart.
 run stall --device /dev/video10 --frames /frames
 run unplug --device /dev/video0 --driver /sys/bus/platform/drivers/vivid --name vivid.0
 

@@ -1,10 +1,11 @@
 // The checks that run inside the qemu guest of tests/kernel/run.sh, against real kernel drivers
-// (v4l2loopback, vivid, gpio-sim). Each subcommand prints "CHECK <name> PASS|FAIL <detail>" and
+// (v4l2loopback, vivid, gpio-sim, vimc through libcamera). Each subcommand prints "CHECK <name> PASS|FAIL <detail>" and
 // exits 0 on PASS. Deliberately free of OpenCV imgcodecs (the guest has few libraries): the
 // dataset comes as binary PPM files decoded on the host by `kernel_prepare`.
 
 #include <poll.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "capture/libcamera_source.h"
 #include "capture/loopback_feeder.h"
 #include "capture/pixel_format.h"
 #include "capture/trigger.h"
@@ -359,6 +361,44 @@ int CheckLoopbackStall(const std::map<std::string, std::string>& a) {
                     " reopen(s)");
 }
 
+// libcamera lists vimc's camera and LibcameraSource captures from it.
+int CheckLibcamera(const std::map<std::string, std::string>& a) {
+  const std::string want = a.at("--camera");
+  std::string error;
+  const std::vector<std::string> ids = ListLibcameraCameras(&error);
+  std::string listed;
+  for (const auto& id : ids) listed += "'" + id + "' ";
+  const bool found = std::find(ids.begin(), ids.end(), want) != ids.end();
+  Report("libcamera-list", found, "libcamera lists " + std::to_string(ids.size()) + " camera(s): " + listed + error);
+  if (!found) return 1;
+  LibcameraOptions o;
+  o.camera = want;
+  o.lost_after_ms = 20000;
+  LibcameraSource source(o);
+  if (std::string e = source.Open(); !e.empty()) return Report("libcamera-capture", false, e);
+  int frames = 0;
+  double stddev = 0;
+  cv::Size size;
+  const auto deadline = Clock::now() + 60s;
+  while (frames < 3 && Clock::now() < deadline) {
+    Frame f;
+    std::string e;
+    const ReadStatus s = source.Read(&f, 2000ms, &e);
+    if (s == ReadStatus::kError) return Report("libcamera-capture", false, e);
+    if (s != ReadStatus::kFrame) continue;
+    cv::Scalar mean, sd;
+    cv::meanStdDev(f.image, mean, sd);
+    stddev = sd[0];
+    size = f.image.size();
+    ++frames;
+  }
+  const std::string desc = source.Describe();
+  source.Close();
+  return Report("libcamera-capture", frames == 3 && stddev > 1,
+                desc + ": " + std::to_string(frames) + " frames " + std::to_string(size.width) + "x" +
+                    std::to_string(size.height) + ", stddev " + std::to_string(stddev));
+}
+
 }  // namespace
 }  // namespace mm
 
@@ -376,6 +416,7 @@ int main(int argc, char** argv) {
     if (cmd == "gpio") return mm::CheckGpio(a);
     if (cmd == "unplug") return mm::CheckUnplug(a);
     if (cmd == "stall") return mm::CheckLoopbackStall(a);
+    if (cmd == "libcamera") return mm::CheckLibcamera(a);
   } catch (const std::exception& e) {
     return mm::Report(cmd, false, std::string("exception: ") + e.what());
   }

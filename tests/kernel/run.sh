@@ -66,6 +66,16 @@ if [ ! -f "$mods/gpio-sim-oot.ko" ]; then
   make -s -C "$headers" M="$gs" modules >/dev/null
   cp "$gs/gpio-sim-oot.ko" "$mods/"
 fi
+if [ ! -f "$mods/vimc.ko" ]; then
+  vb="$work/vimc-build"
+  rm -rf "$vb" && mkdir -p "$vb"
+  tar -xJf "$work"/linux-source-6.1/usr/src/linux-source-6.1.tar.xz -C "$vb" --strip-components=5 \
+    --wildcards '*/drivers/media/test-drivers/vimc/*'
+  printf 'obj-m := vimc.o\nvimc-y := vimc-core.o vimc-common.o vimc-streamer.o vimc-capture.o vimc-debayer.o vimc-scaler.o vimc-sensor.o vimc-lens.o\n' > "$vb/Kbuild"
+  rm -f "$vb/Makefile"
+  make -s -C "$headers" M="$vb" modules >/dev/null
+  cp "$vb/vimc.ko" "$mods/"
+fi
 log "modules built"
 
 # Initramfs: busybox, the modules (vivid and its dependencies from Debian's image, ours in
@@ -97,9 +107,17 @@ done
 cp "$mods"/*.ko "$root/lib/modules/$kv/extra/"
 depmod -b "$root" "$kv"
 cp "$checks" "$root/bin/kernel_checks"
-for lib in $(ldd "$checks" | awk '/=>/ {print $3} /^\t\/lib/ {print $1}' | sort -u); do
-  mkdir -p "$root$(dirname "$lib")"
-  cp -L "$lib" "$root$lib"
+# libcamera's IPA modules (vimc's pipeline needs its IPA) and their configuration.
+lcdir=/usr/lib/x86_64-linux-gnu/libcamera
+mkdir -p "$root$lcdir" "$root/usr/share/libcamera"
+cp -a "$lcdir"/. "$root$lcdir/"
+cp -a /usr/share/libcamera/. "$root/usr/share/libcamera/"
+for bin in "$checks" "$lcdir"/*.so "$lcdir"/*_proxy; do
+  for lib in $(ldd "$bin" | awk '/=>/ {print $3} /^\t\/lib/ {print $1}' | sort -u); do
+    [ -e "$root$lib" ] && continue
+    mkdir -p "$root$(dirname "$lib")"
+    cp -L "$lib" "$root$lib"
+  done
 done
 "$prepare" "$repo/data/tum_office" "$root/frames" 6 >/dev/null
 cp tests/kernel/guest_init.sh "$root/init"
