@@ -6,12 +6,6 @@
 
 namespace mm {
 
-int64_t MonotonicNowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 std::string ReplayOptions::Check() const {
   if (!(speed > 0.0)) return "speed: must be > 0";
   if (list.empty()) return "list: must name a file";

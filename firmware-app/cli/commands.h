@@ -14,5 +14,9 @@ using Runner = std::function<int()>;
 Runner AddReconCommand(CLI::App& app);
 /// Adds `ctl`: trigger | status | ping a running monomeshd.
 Runner AddCtlCommand(CLI::App& app);
+/// Adds `feed`: plays a dataset into a v4l2loopback device.
+Runner AddFeedCommand(CLI::App& app);
+/// Adds `gpio-test`: prints button events of a GPIO line.
+Runner AddGpioTestCommand(CLI::App& app);
 
 }  // namespace mm::cli

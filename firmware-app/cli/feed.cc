@@ -1,0 +1,94 @@
+// `monomesh feed`: plays a dataset into a v4l2loopback device, so any V4L2 program (the daemon
+// included) sees the dataset as a real camera.
+
+#include <csignal>
+#include <iostream>
+#include <thread>
+
+#include "capture/loopback_feeder.h"
+#include "capture/replay_source.h"
+#include "cli/commands.h"
+
+namespace mm::cli {
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+
+int RunFeed(const std::string& device, const std::string& dataset, double fps,
+            const std::string& format_name, bool loop, int64_t count) {
+  using Clock = std::chrono::steady_clock;
+  const auto format = ParsePixelFormat(format_name);
+  if (!format || (*format != PixelFormat::kGrey && *format != PixelFormat::kYuyv)) {
+    std::cerr << "monomesh feed: format '" << format_name << "' (expected grey or yuyv)\n";
+    return 2;
+  }
+  ReplayOptions ro;
+  ro.realtime = false;
+  ro.loop = loop;
+  ReplaySource replay(dataset, ro);
+  if (std::string e = replay.Open(); !e.empty()) {
+    std::cerr << "monomesh feed: " << e << "\n";
+    return 1;
+  }
+  std::signal(SIGINT, [](int) { g_stop = 1; });
+  std::signal(SIGTERM, [](int) { g_stop = 1; });
+  LoopbackFeeder feeder;
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / fps));
+  auto next = Clock::now();
+  int64_t written = 0;
+  while (!g_stop && (count <= 0 || written < count)) {
+    Frame frame;
+    std::string error;
+    const ReadStatus s = replay.Read(&frame, std::chrono::milliseconds(1000), &error);
+    if (s == ReadStatus::kEndOfStream) break;
+    if (s != ReadStatus::kFrame) {
+      std::cerr << "monomesh feed: " << error << "\n";
+      return 1;
+    }
+    if (written == 0) {
+      if (std::string e = feeder.Open(device, frame.image.cols, frame.image.rows, *format, fps);
+          !e.empty()) {
+        std::cerr << "monomesh feed: " << e << "\n";
+        return 1;
+      }
+      std::cerr << "feeding " << dataset << " into " << device << " as " << PixelFormatName(*format)
+                << " " << frame.image.cols << "x" << frame.image.rows << " at " << fps << " fps\n";
+    }
+    if (std::string e = feeder.Write(frame.image); !e.empty()) {
+      std::cerr << "monomesh feed: " << e << "\n";
+      return 1;
+    }
+    ++written;
+    next += period;
+    std::this_thread::sleep_until(next);
+  }
+  std::cerr << "fed " << written << " frames\n";
+  return 0;
+}
+
+}  // namespace
+
+Runner AddFeedCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("feed", "Play a dataset into a v4l2loopback device");
+  struct Args {
+    std::string device, dataset, format = "yuyv";
+    double fps = 30;
+    bool once = false;
+    int64_t count = 0;
+  };
+  auto args = std::make_shared<Args>();
+  cmd->add_option("--device", args->device, "v4l2loopback device, e.g. /dev/video10")->required();
+  cmd->add_option("--dataset", args->dataset, "TUM-format folder (rgb.txt)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--fps", args->fps, "Frames per second")->capture_default_str()->check(CLI::Range(0.1, 1000.0));
+  cmd->add_option("--format", args->format, "grey | yuyv")->capture_default_str();
+  cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
+  cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
+  return [cmd, args]() -> int {
+    if (!cmd->parsed()) return -1;
+    return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count);
+  };
+}
+
+}  // namespace mm::cli

@@ -1,0 +1,56 @@
+#!/bin/busybox sh
+# /init of the qemu guest of tests/kernel/run.sh: loads the drivers, runs the checks in order
+# (v4l2loopback and vivid, gpio-sim, vimc via libcamera, removal and recovery), prints one CHECK line each, powers off.
+/bin/busybox --install -s /bin
+export PATH=/bin
+mount -t proc proc /proc
+mount -t sysfs sys /sys
+mount -t devtmpfs dev /dev
+echo "GUEST up $(uname -r)"
+
+load() { modprobe "$@" 2>&1 | sed 's/^/GUEST modprobe: /'; }
+load v4l2loopback video_nr=10 card_label=monomesh-loopback max_buffers=8
+load vivid n_devs=1 node_types=0x1 vid_cap_nr=0
+sleep 1
+run() { /bin/kernel_checks "$@" || true; }
+
+# 1. Loopback: dataset -> feeder -> v4l2loopback -> V4l2Source, bit-exact.
+run loopback --device /dev/video10 --format grey --frames /frames
+run loopback --device /dev/video10 --format yuyv --frames /frames
+# 2. vivid in three formats, and the error texts against a real device.
+run vivid --device /dev/video0 --format yuyv
+run vivid --device /dev/video0 --format nv12
+run vivid --device /dev/video0 --format grey
+run errors --device /dev/video0
+
+# 3. gpio-sim: one chip, 8 lines; line 3 is the button.
+load gpio-sim-oot  # Pulls configfs (a module in Debian's kernel): mount it afterwards.
+mount -t configfs configfs /sys/kernel/config
+if [ -d /sys/kernel/config/gpio-sim ]; then
+  cfg=/sys/kernel/config/gpio-sim/mm
+  mkdir $cfg $cfg/bank0 $cfg/bank0/line3
+  echo 8 > $cfg/bank0/num_lines
+  echo button > $cfg/bank0/line3/name
+  echo 1 > $cfg/live
+  chip=$(cat $cfg/bank0/chip_name)
+  dev=$(cat $cfg/dev_name)
+  run gpio --chip "$chip" --line button --pull /sys/devices/platform/$dev/$chip/sim_gpio3/pull
+else
+  echo "CHECK gpio-edges FAIL gpio-sim not available"
+fi
+
+# 4. vimc through libcamera (no udevd: write the udev database entries libcamera looks for).
+load vimc
+sleep 1
+mkdir -p /run/udev/data
+for d in /sys/bus/media/devices/* /sys/class/video4linux/*; do
+  [ -f "$d/dev" ] && echo "I:1" > "/run/udev/data/c$(cat "$d/dev")"
+done
+LIBCAMERA_LOG_LEVELS='*:ERROR' run libcamera --camera 'platform/vimc.0 Sensor B'
+
+# 5. Removal while streaming and recovery without a restart.
+run stall --device /dev/video10 --frames /frames
+run unplug --device /dev/video0 --driver /sys/bus/platform/drivers/vivid --name vivid.0
+
+echo "GUEST done"
+poweroff -f

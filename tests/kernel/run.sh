@@ -1,0 +1,146 @@
+#!/usr/bin/env bash
+# Kernel in the loop: boots Debian's own kernel under qemu (TCG, no KVM needed) with a busybox
+# initramfs holding vivid, v4l2loopback and gpio-sim and the project's check binary, runs the
+# checks inside and prints one line per check ("CHECK <name> PASS|FAIL <detail>"). Exits
+# non-zero when any check fails or the guest does not finish.
+# Usage: tests/kernel/run.sh [build dir]   (default build/default, must hold tests_kernel_checks)
+# Environment: MM_KERNEL_WORK (default build/kernel): downloads and module builds are cached there.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+repo="$PWD"
+build="$(cd "${1:-build/default}" && pwd)"
+work="${MM_KERNEL_WORK:-$repo/build/kernel}"
+mkdir -p "$work"
+work="$(cd "$work" && pwd)"
+t0=$SECONDS
+log() { echo "kernel: $* ($((SECONDS - t0)) s)"; }
+
+scripts/install-deps.sh kernel >/dev/null
+checks="$build/tests/tests_kernel_checks"
+prepare="$build/tests/tests_kernel_prepare"
+[ -x "$checks" ] && [ -x "$prepare" ] || { echo "kernel: build $build first (tests_kernel_checks)" >&2; exit 2; }
+
+# The kernel version of linux-headers-amd64; image and source pinned to the same package version.
+kv="$(dpkg-query -W -f='${Depends}' linux-headers-amd64 | sed -n 's/.*linux-headers-\([0-9][^ ,]*-amd64\).*/\1/p')"
+pkgver="$(dpkg-query -W -f='${Version}' "linux-headers-$kv")"
+headers="/usr/src/linux-headers-$kv"
+log "kernel $kv ($pkgver)"
+
+fetch() {  # fetch PACKAGE=VERSION -> unpacked into $work/<name>
+  local spec="$1" name="${1%%=*}"
+  if [ ! -f "$work/$name/.done" ]; then
+    rm -rf "$work/$name" "$work/dl-$name"
+    mkdir -p "$work/dl-$name" "$work/$name"
+    (cd "$work/dl-$name" && apt-get download -q "$spec" >/dev/null 2>&1) || {
+      apt-get update -qq && (cd "$work/dl-$name" && apt-get download -q "$spec" >/dev/null)
+    }
+    dpkg-deb -x "$work/dl-$name"/*.deb "$work/$name"
+    rm -rf "$work/dl-$name"
+    touch "$work/$name/.done"
+  fi
+}
+fetch "linux-image-${kv}-unsigned=$pkgver"
+image="$work/linux-image-${kv}-unsigned"
+fetch v4l2loopback-dkms
+fetch "linux-source-6.1=$pkgver"
+log "packages fetched"
+
+# Out-of-tree modules: v4l2loopback (its dkms source) and gpio-sim (+ irq_sim) from linux-source.
+mods="$work/mods"
+mkdir -p "$mods"
+if [ ! -f "$mods/v4l2loopback.ko" ]; then
+  src="$(echo "$work"/v4l2loopback-dkms/usr/src/v4l2loopback-*)"
+  rm -rf "$work/v4l2loopback-build" && cp -r "$src" "$work/v4l2loopback-build"
+  make -s -C "$headers" M="$work/v4l2loopback-build" modules >/dev/null
+  cp "$work/v4l2loopback-build/v4l2loopback.ko" "$mods/"
+fi
+if [ ! -f "$mods/gpio-sim-oot.ko" ]; then
+  gs="$work/gpio-sim-build"
+  rm -rf "$gs" && mkdir -p "$gs"
+  tar -xJf "$work"/linux-source-6.1/usr/src/linux-source-6.1.tar.xz -C "$gs" --strip-components=1 \
+    --wildcards '*/drivers/gpio/gpio-sim.c' '*/drivers/gpio/gpiolib.h' '*/kernel/irq/irq_sim.c'
+  cp "$gs/drivers/gpio/gpio-sim.c" "$gs/drivers/gpio/gpiolib.h" "$gs/"
+  # irq_to_desc() is not exported: use generic_handle_irq() (platform-facts.md).
+  sed 's/handle_simple_irq(irq_to_desc(\([^)]*\)))/generic_handle_irq(\1)/' "$gs/kernel/irq/irq_sim.c" > "$gs/irq_sim.c"
+  printf 'obj-m := gpio-sim-oot.o\ngpio-sim-oot-y := gpio-sim.o irq_sim.o\n' > "$gs/Kbuild"
+  make -s -C "$headers" M="$gs" modules >/dev/null
+  cp "$gs/gpio-sim-oot.ko" "$mods/"
+fi
+if [ ! -f "$mods/vimc.ko" ]; then
+  vb="$work/vimc-build"
+  rm -rf "$vb" && mkdir -p "$vb"
+  tar -xJf "$work"/linux-source-6.1/usr/src/linux-source-6.1.tar.xz -C "$vb" --strip-components=5 \
+    --wildcards '*/drivers/media/test-drivers/vimc/*'
+  printf 'obj-m := vimc.o\nvimc-y := vimc-core.o vimc-common.o vimc-streamer.o vimc-capture.o vimc-debayer.o vimc-scaler.o vimc-sensor.o vimc-lens.o\n' > "$vb/Kbuild"
+  rm -f "$vb/Makefile"
+  make -s -C "$headers" M="$vb" modules >/dev/null
+  cp "$vb/vimc.ko" "$mods/"
+fi
+log "modules built"
+
+# Initramfs: busybox, the modules (vivid and its dependencies from Debian's image, ours in
+# extra/), the check binary with its libraries, the dataset frames as PPM.
+root="$work/root"
+rm -rf "$root" && mkdir -p "$root"/{bin,proc,sys,dev,tmp,frames,lib/modules/$kv/extra}
+cp /bin/busybox "$root/bin/busybox"
+kmods="$image/lib/modules/$kv"
+cp "$kmods"/modules.builtin* "$kmods"/modules.order "$root/lib/modules/$kv/" 2>/dev/null || true
+want=(vivid)
+for m in "$mods"/*.ko; do want+=($(modinfo -F depends "$m" | tr ',' ' ')); done
+declare -A seen=()
+while [ ${#want[@]} -gt 0 ]; do
+  m="${want[0]}"; want=("${want[@]:1}")
+  [ -n "${seen[$m]:-}" ] && continue
+  seen[$m]=1
+  f="$(find "$kmods/kernel" -name "$m.ko*" -o -name "${m//_/-}.ko*" | head -1)"
+  [ -n "$f" ] || continue
+  rel="${f#"$kmods"/}"
+  mkdir -p "$root/lib/modules/$kv/$(dirname "$rel")"
+  case "$f" in
+    *.xz) xz -dc "$f" > "$root/lib/modules/$kv/${rel%.xz}" ;;
+    *.zst) zstd -qdc "$f" > "$root/lib/modules/$kv/${rel%.zst}" ;;
+    *) cp "$f" "$root/lib/modules/$kv/$rel" ;;
+  esac
+  deps="$(modinfo -F depends "$f" | tr ',' ' ')"
+  for d in $deps; do want+=("$d"); done
+done
+cp "$mods"/*.ko "$root/lib/modules/$kv/extra/"
+depmod -b "$root" "$kv"
+cp "$checks" "$root/bin/kernel_checks"
+# libcamera's IPA modules (vimc's pipeline needs its IPA) and their configuration.
+lcdir=/usr/lib/x86_64-linux-gnu/libcamera
+mkdir -p "$root$lcdir" "$root/usr/share/libcamera"
+cp -a "$lcdir"/. "$root$lcdir/"
+cp -a /usr/share/libcamera/. "$root/usr/share/libcamera/"
+for bin in "$checks" "$lcdir"/*.so "$lcdir"/*_proxy; do
+  for lib in $(ldd "$bin" | awk '/=>/ {print $3} /^\t\/lib/ {print $1}' | sort -u); do
+    [ -e "$root$lib" ] && continue
+    mkdir -p "$root$(dirname "$lib")"
+    cp -L "$lib" "$root$lib"
+  done
+done
+"$prepare" "$repo/data/tum_office" "$root/frames" 6 >/dev/null
+cp tests/kernel/guest_init.sh "$root/init"
+chmod +x "$root/init"
+(cd "$root" && find . | cpio -o -H newc --quiet | zstd -q -3 -T0 > "$work/initrd.zst")
+log "initramfs $(du -h "$work/initrd.zst" | cut -f1)"
+
+# Boot; the guest powers off when done (panic=-1 + -no-reboot end qemu on a crash).
+out="$work/console.log"
+set +e
+timeout 300 qemu-system-x86_64 -accel tcg -cpu max -smp 1 -m 512 -nographic -no-reboot -nic none \
+  -kernel "$image/boot/vmlinuz-$kv" -initrd "$work/initrd.zst" \
+  -append "console=ttyS0 quiet loglevel=3 panic=-1" > "$out" 2>&1
+qrc=$?
+set -e
+tr -d '\r' < "$out" | grep -E '^(CHECK|GUEST)' || true
+pass=$(tr -d '\r' < "$out" | grep -c '^CHECK .* PASS' || true)
+fail=$(tr -d '\r' < "$out" | grep -c '^CHECK .* FAIL' || true)
+done_line=$(tr -d '\r' < "$out" | grep -c '^GUEST done' || true)
+log "qemu exit $qrc"
+echo "kernel checks: $pass passed, $fail failed"
+if [ "$done_line" -ne 1 ] || [ "$fail" -ne 0 ] || [ "$pass" -eq 0 ]; then
+  echo "kernel: FAILED (console log: $out); last lines:" >&2
+  tail -n 30 "$out" >&2
+  exit 1
+fi
