@@ -14,5 +14,9 @@ using Runner = std::function<int()>;
 Runner AddReconCommand(CLI::App& app);
 /// Adds `ctl`: trigger | status | ping a running monomeshd.
 Runner AddCtlCommand(CLI::App& app);
+/// Adds `calibrate`: chessboard images -> Calib_Results.m, calibration.toml, report PNG.
+Runner AddCalibrateCommand(CLI::App& app);
+/// Adds `undistort`: one image through a calibration's remap tables.
+Runner AddUndistortCommand(CLI::App& app);
 
 }  // namespace mm::cli
