@@ -44,6 +44,34 @@ TEST(Undistorter, MovesPointsToUndistortedProjection) {
                                                << expected.transpose();
 }
 
+// Feature points go where the frame's pixels go: the undistorted point of a distorted pixel
+// projects back onto it, and matches the 3-D point's undistorted projection.
+TEST(Undistorter, UndistortPointsMatchesModel) {
+  BouguetCamera c;
+  c.fc = {400, 410};
+  c.cc = {319.5, 239.5};
+  c.alpha_c = 0.01;
+  c.kc = {-0.3, 0.1, 0.001, -0.001, 0.01};
+  c.width = 640;
+  c.height = 480;
+  const Undistorter u(c);
+  std::vector<cv::Point2f> pts;
+  std::vector<Eigen::Vector2d> expected;
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.45, -0.3, 1.0), Eigen::Vector3d(-0.6, 0.4, 1.2),
+                                   Eigen::Vector3d(0.0, 0.0, 2.0)}) {
+    const Eigen::Vector2d d = c.Project(p);
+    pts.emplace_back(static_cast<float>(d.x()), static_cast<float>(d.y()));
+    expected.push_back(u.output_camera().Project(p));
+  }
+  const auto out = u.UndistortPoints(pts);
+  ASSERT_EQ(out.size(), pts.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    // float storage of the input pixel limits this to ~1e-4 px.
+    EXPECT_NEAR(out[i].x, expected[i].x(), 1e-3);
+    EXPECT_NEAR(out[i].y, expected[i].y(), 1e-3);
+  }
+}
+
 TEST(Undistorter, RejectsWrongFrameSize) {
   BouguetCamera c;
   c.fc = {500, 500};
