@@ -60,8 +60,10 @@ std::map<std::string, Value> Tokenize(const std::string& text, const std::string
       continue;
     }
     if (c == '%' || c == ';' || c == ',') {
-      if (c == '%') skip_to_line_end();
-      else ++i;
+      if (c == '%')
+        skip_to_line_end();
+      else
+        ++i;
       continue;
     }
     if (!IsNameStart(c)) {  // Not an assignment: skip the statement.
@@ -112,8 +114,8 @@ std::map<std::string, Value> Tokenize(const std::string& text, const std::string
           const std::string_view token = read_token();
           double v = 0;
           if (token.empty() || !ParseNumber(token, &v)) {
-            Fail(source, line, name, "'" + std::string(token.empty() ? "[" : token) +
-                                         "' is not a number");
+            Fail(source, line, name,
+                 "'" + std::string(token.empty() ? "[" : token) + "' is not a number");
           }
           value.numbers.push_back(v);
         }
@@ -319,8 +321,8 @@ std::string FormatCalibResultsM(const CalibResults& res) {
   o << "%-- Focal length:\nfc = " << Vec({c.fc.x(), c.fc.y()}) << ";\n\n";
   o << "%-- Principal point:\ncc = " << Vec({c.cc.x(), c.cc.y()}) << ";\n\n";
   o << "%-- Skew coefficient:\nalpha_c = " << Num(c.alpha_c) << ";\n\n";
-  o << "%-- Distortion coefficients:\nkc = "
-    << Vec({c.kc[0], c.kc[1], c.kc[2], c.kc[3], c.kc[4]}) << ";\n\n";
+  o << "%-- Distortion coefficients:\nkc = " << Vec({c.kc[0], c.kc[1], c.kc[2], c.kc[3], c.kc[4]})
+    << ";\n\n";
   if (c.error) {  // The toolbox always writes them; a hand-made file may not have them.
     const BouguetCamera::Uncertainty& e = *c.error;
     o << "%-- Focal length uncertainty:\nfc_error = " << Vec({e.fc.x(), e.fc.y()}) << ";\n\n";

@@ -122,7 +122,8 @@ TEST(CalibResultsM, EveryManifestFileLoadsWithItsValues) {
       EXPECT_EQ(r.flags->est_alpha, std::stoi(cells[c_alpha_est]));
       EXPECT_EQ(r.flags->center_optim, std::stoi(cells[c_center]));
       std::string dist = "[";
-      for (int i = 0; i < 5; ++i) dist += std::to_string(r.flags->est_dist[i]) + (i < 4 ? ";" : "]");
+      for (int i = 0; i < 5; ++i)
+        dist += std::to_string(r.flags->est_dist[i]) + (i < 4 ? ";" : "]");
       EXPECT_EQ(dist, cells[c_dist]);
       ASSERT_EQ(r.images.size(), static_cast<size_t>(r.n_ima));
       int active = 0;
@@ -130,8 +131,7 @@ TEST(CalibResultsM, EveryManifestFileLoadsWithItsValues) {
       EXPECT_GT(active, 0);
     }
     // The writer reads back to the same values.
-    ExpectSameResults(r, ParseCalibResultsM(FormatCalibResultsM(r), name + " (rewritten)"),
-                      name);
+    ExpectSameResults(r, ParseCalibResultsM(FormatCalibResultsM(r), name + " (rewritten)"), name);
     // And LoadCalibration takes the file as it is.
     EXPECT_EQ(LoadCalibration(dir / name).fc, r.camera.fc);
   }
@@ -140,8 +140,8 @@ TEST(CalibResultsM, EveryManifestFileLoadsWithItsValues) {
 
 TEST(CalibResultsM, ReferenceFileValuesAndInactiveImages) {
   const auto dir = test::RequireSharedData("bouguet_calib_results_variants");
-  const CalibResults ref = ParseCalibResultsM(ReadFile(dir / "01_bouguet_calib_example_reference.m"),
-                                              "01");
+  const CalibResults ref =
+      ParseCalibResultsM(ReadFile(dir / "01_bouguet_calib_example_reference.m"), "01");
   EXPECT_DOUBLE_EQ(ref.camera.fc.x(), 657.462902871911183);
   EXPECT_DOUBLE_EQ(ref.camera.cc.y(), 242.569349557996361);
   EXPECT_DOUBLE_EQ(ref.camera.kc[3], 0.000019419180220);
@@ -150,20 +150,20 @@ TEST(CalibResultsM, ReferenceFileValuesAndInactiveImages) {
   EXPECT_DOUBLE_EQ((*ref.images[0].tc_error).x(), 8.399644e-01);
 
   // 07: images 2, 3 and 6 inactive (NaN), as its MANIFEST notes say.
-  const CalibResults nan = ParseCalibResultsM(
-      ReadFile(dir / "07_nan_extrinsics_inactive_images.m"), "07");
+  const CalibResults nan =
+      ParseCalibResultsM(ReadFile(dir / "07_nan_extrinsics_inactive_images.m"), "07");
   for (int k = 1; k <= nan.n_ima; ++k) {
     EXPECT_EQ(nan.images[static_cast<size_t>(k - 1)].active, !(k == 2 || k == 3 || k == 6)) << k;
   }
   // 03: skew estimated, kc(5) printed as negative zero.
-  const CalibResults skew = ParseCalibResultsM(
-      ReadFile(dir / "03_bouguet_calib_example_rerun_sergioroubles.m"), "03");
+  const CalibResults skew =
+      ParseCalibResultsM(ReadFile(dir / "03_bouguet_calib_example_rerun_sergioroubles.m"), "03");
   EXPECT_DOUBLE_EQ(skew.camera.alpha_c, 0.000411144009279);
   EXPECT_EQ(skew.camera.kc[4], 0.0);
   EXPECT_EQ(skew.flags->est_alpha, 1);
   // 08: Windows 3-digit exponents in the extrinsics.
-  const CalibResults win = ParseCalibResultsM(
-      ReadFile(dir / "08_three_digit_exponent_windows.m"), "08");
+  const CalibResults win =
+      ParseCalibResultsM(ReadFile(dir / "08_three_digit_exponent_windows.m"), "08");
   EXPECT_TRUE(win.images[0].active);
   EXPECT_TRUE(win.images[0].omc.allFinite());
 }
@@ -198,8 +198,9 @@ TEST(CalibResultsM, RoundTripsAWrittenCalibrationExactly) {
   r.flags = CalibEstimationFlags{};
   r.flags->est_alpha = 1;
   r.images.resize(3);
-  r.images[0] = {Eigen::Vector3d(1.6549, 1.65199, -0.6694056), Eigen::Vector3d(-177.7, -83.8, 853.1),
-                 Eigen::Vector3d(1e-3, 2e-3, 3e-3), Eigen::Vector3d(0.8, 0.7, 0.4), true};
+  r.images[0] = {Eigen::Vector3d(1.6549, 1.65199, -0.6694056),
+                 Eigen::Vector3d(-177.7, -83.8, 853.1), Eigen::Vector3d(1e-3, 2e-3, 3e-3),
+                 Eigen::Vector3d(0.8, 0.7, 0.4), true};
   r.images[2] = {Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(1, 2, 3), std::nullopt,
                  std::nullopt, true};
   const std::string text = FormatCalibResultsM(r);
@@ -235,9 +236,10 @@ TEST(CalibResultsM, ErrorsNameFileLineAndField) {
   ExpectError("fc = [1;x2];\ncc = [1;2];\nkc = [0;0;0;0;0];\n" + base,
               "bad.m:1: field 'fc': 'x2' is not a number");
   ExpectError("fc = [1;2\ncc = [1;2];\n", "field 'fc'");
-  ExpectError("fc = [1;2];\ncc = [1;2];\nkc = [0;0;0;0;0];\nnx = 640;\nny = 480;\n"
-              "fc_error = [1;2];\n",
-              "field 'cc_error': missing");
+  ExpectError(
+      "fc = [1;2];\ncc = [1;2];\nkc = [0;0;0;0;0];\nnx = 640;\nny = 480;\n"
+      "fc_error = [1;2];\n",
+      "field 'cc_error': missing");
 }
 
 TEST(CalibResultsM, LoadCalibrationTakesBothFormats) {

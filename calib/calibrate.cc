@@ -158,8 +158,8 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
   }
   result.views_used = static_cast<int>(used.size());
   if (used.size() < 3) {
-    result.failure_reason = "board found in " + std::to_string(used.size()) +
-                            " images; at least 3 are needed";
+    result.failure_reason =
+        "board found in " + std::to_string(used.size()) + " images; at least 3 are needed";
     return result;
   }
 
@@ -184,7 +184,7 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
   result.init_s = Seconds(t0);
 
   double intr[kIntr] = {K(0, 0), K(1, 1) / K(0, 0), K(0, 2), K(1, 2), 0.0,
-                        dist[0], dist[1], dist[2], dist[3], dist[4]};
+                        dist[0], dist[1],           dist[2], dist[3], dist[4]};
   for (int i = 0; i < 5; ++i) {
     if (!options.est_dist[static_cast<size_t>(i)]) intr[5 + i] = 0.0;
   }
@@ -207,10 +207,9 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
   ceres::Problem problem;
   for (size_t k = 0; k < used.size(); ++k) {
     for (size_t j = 0; j < board.size(); ++j) {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntr, kPose>(
-              new CornerResidual(board[j], image_points[k][j])),
-          nullptr, intr, poses[k].data());
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntr, kPose>(
+                                   new CornerResidual(board[j], image_points[k][j])),
+                               nullptr, intr, poses[k].data());
     }
   }
   std::vector<int> constant;
@@ -269,8 +268,7 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
   result.err_std = {std::sqrt((sum_xx - sum_x * sum_x / n) / (n - 1)),
                     std::sqrt((sum_yy - sum_y * sum_y / n) / (n - 1))};
   const double mean_all = (sum_x + sum_y) / (2 * n);
-  const double sigma_x =
-      std::sqrt((sum_xx + sum_yy - 2 * n * mean_all * mean_all) / (2 * n - 1));
+  const double sigma_x = std::sqrt((sum_xx + sum_yy - 2 * n * mean_all * mean_all) / (2 * n - 1));
 
   // 3-sigma uncertainties: cov = sigma^2 (J^T J)^-1.
   if (options.compute_covariance) {
@@ -337,14 +335,14 @@ std::string CalibrateResult::Summary() const {
   s.precision(6);
   s << "views " << views_used << "/" << images.size() << ", RMS " << rms_px << " px, err_std ["
     << err_std.x() << " " << err_std.y() << "]\n"
-    << "fc = [" << camera.fc.x() << " " << camera.fc.y() << "] +/- [" << e.fc.x() << " "
-    << e.fc.y() << "]\n"
-    << "cc = [" << camera.cc.x() << " " << camera.cc.y() << "] +/- [" << e.cc.x() << " "
-    << e.cc.y() << "]\n"
+    << "fc = [" << camera.fc.x() << " " << camera.fc.y() << "] +/- [" << e.fc.x() << " " << e.fc.y()
+    << "]\n"
+    << "cc = [" << camera.cc.x() << " " << camera.cc.y() << "] +/- [" << e.cc.x() << " " << e.cc.y()
+    << "]\n"
     << "alpha_c = " << camera.alpha_c << " +/- " << e.alpha_c << "\n"
-    << "kc = [" << camera.kc[0] << " " << camera.kc[1] << " " << camera.kc[2] << " "
-    << camera.kc[3] << " " << camera.kc[4] << "] +/- [" << e.kc[0] << " " << e.kc[1] << " "
-    << e.kc[2] << " " << e.kc[3] << " " << e.kc[4] << "]  (3 sigma)\n"
+    << "kc = [" << camera.kc[0] << " " << camera.kc[1] << " " << camera.kc[2] << " " << camera.kc[3]
+    << " " << camera.kc[4] << "] +/- [" << e.kc[0] << " " << e.kc[1] << " " << e.kc[2] << " "
+    << e.kc[3] << " " << e.kc[4] << "]  (3 sigma)\n"
     << "timings: detect " << detect_s << " s, init " << init_s << " s, optimize " << optimize_s
     << " s (" << iterations << " iterations), covariance " << covariance_s << " s";
   return s.str();

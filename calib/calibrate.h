@@ -22,16 +22,16 @@
 namespace mm {
 
 struct CalibrateOptions {
-  cv::Size board{9, 6};                    ///< Inner corners per row x per column.
-  double square = 30.0;                    ///< Square size in board units (mm).
-  bool est_alpha = false;                  ///< Estimate the skew (toolbox default: no).
+  cv::Size board{9, 6};                        ///< Inner corners per row x per column.
+  double square = 30.0;                        ///< Square size in board units (mm).
+  bool est_alpha = false;                      ///< Estimate the skew (toolbox default: no).
   std::array<int, 5> est_dist{1, 1, 1, 1, 0};  ///< Which of kc1..kc5 to estimate.
-  bool center_optim = true;                ///< Estimate cc (else the image centre).
-  bool est_aspect_ratio = true;            ///< Estimate fc2/fc1 (else fc2 = fc1).
-  int max_iterations = 100;                ///< Ceres LM iterations.
-  bool compute_covariance = true;          ///< The *_error fields.
-  int subpix_half_window = 5;              ///< cornerSubPix half window (toolbox: wintx = 5).
-  bool exhaustive_detection = true;        ///< Retry undetected boards with EXHAUSTIVE (slow).
+  bool center_optim = true;                    ///< Estimate cc (else the image centre).
+  bool est_aspect_ratio = true;                ///< Estimate fc2/fc1 (else fc2 = fc1).
+  int max_iterations = 100;                    ///< Ceres LM iterations.
+  bool compute_covariance = true;              ///< The *_error fields.
+  int subpix_half_window = 5;                  ///< cornerSubPix half window (toolbox: wintx = 5).
+  bool exhaustive_detection = true;            ///< Retry undetected boards with EXHAUSTIVE (slow).
 
   /// "" when valid, else "field: problem".
   [[nodiscard]] std::string Check() const;
@@ -58,9 +58,9 @@ struct CalibrateResult {
   BouguetCamera camera;  ///< With 3-sigma `error` when the covariance was computed.
   std::vector<CalibrateImageResult> images;  ///< One per input view, in order.
   CalibEstimationFlags flags;
-  double rms_px = 0;                    ///< sqrt(mean squared reprojection distance).
-  Eigen::Vector2d err_std{0, 0};        ///< Std of the x / y residuals (the toolbox's err_std).
-  BouguetCamera initial;                ///< The OpenCV initial guess.
+  double rms_px = 0;              ///< sqrt(mean squared reprojection distance).
+  Eigen::Vector2d err_std{0, 0};  ///< Std of the x / y residuals (the toolbox's err_std).
+  BouguetCamera initial;          ///< The OpenCV initial guess.
   int views_used = 0;
   int iterations = 0;
   double detect_s = 0, init_s = 0, optimize_s = 0, covariance_s = 0;

@@ -154,11 +154,11 @@ void ExpectWithinTwiceThreeSigma(const BouguetCamera& ours, const BouguetCamera&
   const std::pair<const char*, std::array<double, 3>> rows[] = {
       {"fc1", {ours.fc.x(), ref.fc.x(), e.fc.x()}}, {"fc2", {ours.fc.y(), ref.fc.y(), e.fc.y()}},
       {"cc1", {ours.cc.x(), ref.cc.x(), e.cc.x()}}, {"cc2", {ours.cc.y(), ref.cc.y(), e.cc.y()}},
-      {"kc1", {ours.kc[0], ref.kc[0], e.kc[0]}},   {"kc2", {ours.kc[1], ref.kc[1], e.kc[1]}}};
+      {"kc1", {ours.kc[0], ref.kc[0], e.kc[0]}},    {"kc2", {ours.kc[1], ref.kc[1], e.kc[1]}}};
   for (const auto& [name, v] : rows) {
     const double ratio = std::abs(v[0] - v[1]) / v[2];
-    std::cout << name << ": ours " << v[0] << " toolbox " << v[1] << " 3sigma " << v[2]
-              << " -> " << ratio << " x 3sigma\n";
+    std::cout << name << ": ours " << v[0] << " toolbox " << v[1] << " 3sigma " << v[2] << " -> "
+              << ratio << " x 3sigma\n";
     EXPECT_LE(ratio, 2.0) << name;
   }
 }

@@ -90,9 +90,9 @@ void BouguetCamera::SetIntrinsics(const IntrinsicsVector& p) {
   for (int i = 0; i < 5; ++i) kc[static_cast<size_t>(i)] = p[5 + i];
 }
 
-Eigen::Vector2d BouguetCamera::Project(const Eigen::Vector3d& point_in_cam,
-                                       Eigen::Matrix<double, 2, 3>* d_point,
-                                       Eigen::Matrix<double, 2, kNumIntrinsics>* d_intrinsics) const {
+Eigen::Vector2d BouguetCamera::Project(
+    const Eigen::Vector3d& point_in_cam, Eigen::Matrix<double, 2, 3>* d_point,
+    Eigen::Matrix<double, 2, kNumIntrinsics>* d_intrinsics) const {
   const double inv_z = 1.0 / point_in_cam.z();
   const Eigen::Vector2d x_n = point_in_cam.head<2>() * inv_z;
   Eigen::Matrix2d d_distort;

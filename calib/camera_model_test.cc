@@ -130,8 +130,8 @@ TEST(BouguetCamera, UndistortThenDistortEveryPixel) {
         worst = std::max(worst, (back - pixel).norm());
       }
     }
-    std::cout << "undistort->distort worst error " << worst << " px (" << c.width << "x"
-              << c.height << ")\n";
+    std::cout << "undistort->distort worst error " << worst << " px (" << c.width << "x" << c.height
+              << ")\n";
     EXPECT_LT(worst, 0.01) << c.width << "x" << c.height;
   }
 }

@@ -52,8 +52,9 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
 }
 
 // Median Sampson distance (in pixels, normalized error times the mean focal length).
-double MedianSampsonPx(const std::vector<Eigen::Vector2d>& x0, const std::vector<Eigen::Vector2d>& x1,
-                       const Eigen::Matrix3d& E, double focal) {
+double MedianSampsonPx(const std::vector<Eigen::Vector2d>& x0,
+                       const std::vector<Eigen::Vector2d>& x1, const Eigen::Matrix3d& E,
+                       double focal) {
   std::vector<double> errors;
   for (size_t i = 0; i < x0.size(); ++i) {
     const Eigen::Vector3d a(x0[i].x(), x0[i].y(), 1.0), b(x1[i].x(), x1[i].y(), 1.0);

@@ -6,8 +6,8 @@ namespace mm {
 
 OpenCvCamera ToOpenCv(const BouguetCamera& c) {
   OpenCvCamera o;
-  o.K = cv::Matx33d(c.fc.x(), c.alpha_c * c.fc.x(), c.cc.x(), 0.0, c.fc.y(), c.cc.y(), 0.0, 0.0,
-                    1.0);
+  o.K =
+      cv::Matx33d(c.fc.x(), c.alpha_c * c.fc.x(), c.cc.x(), 0.0, c.fc.y(), c.cc.y(), 0.0, 0.0, 1.0);
   o.dist.assign(c.kc.begin(), c.kc.end());
   o.size = cv::Size(c.width, c.height);
   return o;

@@ -43,8 +43,7 @@ cv::Mat Undistorter::Apply(const cv::Mat& distorted) const {
   if (distorted.cols != input_.width || distorted.rows != input_.height) {
     throw std::invalid_argument("Undistorter: frame is " + std::to_string(distorted.cols) + "x" +
                                 std::to_string(distorted.rows) + ", calibration is " +
-                                std::to_string(input_.width) + "x" +
-                                std::to_string(input_.height));
+                                std::to_string(input_.width) + "x" + std::to_string(input_.height));
   }
   if (map_xy_.empty()) return distorted;
   cv::Mat out;

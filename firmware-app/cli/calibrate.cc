@@ -21,7 +21,8 @@ namespace fs = std::filesystem;
 
 bool IsImage(const fs::path& p) {
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   for (const char* e : {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm", ".ppm"}) {
     if (ext == e) return true;
   }
@@ -161,7 +162,8 @@ Runner AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--board", args->board, "Inner corners COLSxROWS, e.g. 9x6")->required();
   cmd->add_option("--square", args->square, "Square size (mm)")->required();
   cmd->add_flag("--est-alpha", args->est_alpha, "Estimate the skew alpha_c");
-  cmd->add_option("--est-dist", args->est_dist, "Which of kc1..kc5 to estimate (default 1,1,1,1,0)");
+  cmd->add_option("--est-dist", args->est_dist,
+                  "Which of kc1..kc5 to estimate (default 1,1,1,1,0)");
   cmd->add_option("--center-optim", args->center_optim, "Estimate the principal point (0|1)")
       ->check(CLI::Range(0, 1));
   cmd->add_option("--est-aspect-ratio", args->est_aspect_ratio, "Estimate fc2/fc1 (0|1)")

@@ -30,8 +30,8 @@ int RunUndistort(const std::string& calib, const std::string& in, const std::str
   }
   const BouguetCamera& o = undistorter.output_camera();
   std::cout << "written " << out << " (" << result.cols << "x" << result.rows
-            << "); output camera fc = [" << o.fc.x() << " " << o.fc.y() << "], cc = ["
-            << o.cc.x() << " " << o.cc.y() << "], alpha_c = " << o.alpha_c << ", kc = 0\n";
+            << "); output camera fc = [" << o.fc.x() << " " << o.fc.y() << "], cc = [" << o.cc.x()
+            << " " << o.cc.y() << "], alpha_c = " << o.alpha_c << ", kc = 0\n";
   return 0;
 }
 
