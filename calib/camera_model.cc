@@ -51,8 +51,14 @@ Eigen::Vector2d BouguetCamera::Undistort(const Eigen::Vector2d& x_d) const {
   for (int it = 0; it < 20; ++it) {
     Eigen::Matrix2d jac;
     const Eigen::Vector2d residual = Distort(x_n, &jac) - x_d;
-    const Eigen::Vector2d step = jac.partialPivLu().solve(residual);
-    x_n -= step;
+    // Explicit 2x2 solve (Cramer's rule): cheap, and the Jacobian is near identity for lenses.
+    const double det = jac(0, 0) * jac(1, 1) - jac(0, 1) * jac(1, 0);
+    if (det == 0.0 || !std::isfinite(det)) break;
+    const double sx = (jac(1, 1) * residual.x() - jac(0, 1) * residual.y()) / det;
+    const double sy = (jac(0, 0) * residual.y() - jac(1, 0) * residual.x()) / det;
+    x_n.x() -= sx;
+    x_n.y() -= sy;
+    const Eigen::Vector2d step(sx, sy);
     if (step.squaredNorm() < 1e-28) break;
   }
   return x_n;
