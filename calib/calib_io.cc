@@ -1,5 +1,7 @@
 #include "calib/calib_io.h"
 
+#include "calib/calib_results_m.h"
+
 #include <toml++/toml.h>
 
 #include <cstdio>
@@ -129,7 +131,12 @@ BouguetCamera LoadCalibration(const std::filesystem::path& path) {
   if (!in) throw CalibrationError(path.string() + ": cannot open calibration file");
   std::ostringstream text;
   text << in.rdbuf();
-  return ParseCalibrationToml(text.str(), path.string());
+  const std::string content = text.str();
+  // Both formats load anywhere: Calib_Results.m by extension or content, else the TOML format.
+  if (path.extension() == ".m" || LooksLikeCalibResultsM(content)) {
+    return ParseCalibResultsM(content, path.string()).camera;
+  }
+  return ParseCalibrationToml(content, path.string());
 }
 
 std::string FormatCalibrationToml(const BouguetCamera& c) {

@@ -25,7 +25,8 @@ class CalibrationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Loads a calibration from a stored TOML file.
+/// Loads a calibration from the stored TOML format or a toolbox Calib_Results.m (chosen by the
+/// `.m` extension or the content, see LooksLikeCalibResultsM).
 /// \throws CalibrationError naming the file, the line where known, and the field.
 BouguetCamera LoadCalibration(const std::filesystem::path& path);
 

@@ -51,8 +51,14 @@ Eigen::Vector2d BouguetCamera::Undistort(const Eigen::Vector2d& x_d) const {
   for (int it = 0; it < 20; ++it) {
     Eigen::Matrix2d jac;
     const Eigen::Vector2d residual = Distort(x_n, &jac) - x_d;
-    const Eigen::Vector2d step = jac.partialPivLu().solve(residual);
-    x_n -= step;
+    // Explicit 2x2 solve (Cramer's rule): cheap, and the Jacobian is near identity for lenses.
+    const double det = jac(0, 0) * jac(1, 1) - jac(0, 1) * jac(1, 0);
+    if (det == 0.0 || !std::isfinite(det)) break;
+    const double sx = (jac(1, 1) * residual.x() - jac(0, 1) * residual.y()) / det;
+    const double sy = (jac(0, 0) * residual.y() - jac(1, 0) * residual.x()) / det;
+    x_n.x() -= sx;
+    x_n.y() -= sy;
+    const Eigen::Vector2d step(sx, sy);
     if (step.squaredNorm() < 1e-28) break;
   }
   return x_n;
@@ -75,6 +81,67 @@ Eigen::Vector2d BouguetCamera::Project(const Eigen::Vector3d& point_in_cam) cons
 
 Eigen::Vector2d BouguetCamera::Unproject(const Eigen::Vector2d& pixel) const {
   return Undistort(DistortedFromPixel(pixel));
+}
+
+BouguetCamera::IntrinsicsVector BouguetCamera::Intrinsics() const {
+  IntrinsicsVector p;
+  p << fc.x(), fc.y(), cc.x(), cc.y(), alpha_c, kc[0], kc[1], kc[2], kc[3], kc[4];
+  return p;
+}
+
+void BouguetCamera::SetIntrinsics(const IntrinsicsVector& p) {
+  fc = {p[0], p[1]};
+  cc = {p[2], p[3]};
+  alpha_c = p[4];
+  for (int i = 0; i < 5; ++i) kc[static_cast<size_t>(i)] = p[5 + i];
+}
+
+Eigen::Vector2d BouguetCamera::Project(
+    const Eigen::Vector3d& point_in_cam, Eigen::Matrix<double, 2, 3>* d_point,
+    Eigen::Matrix<double, 2, kNumIntrinsics>* d_intrinsics) const {
+  const double inv_z = 1.0 / point_in_cam.z();
+  const Eigen::Vector2d x_n = point_in_cam.head<2>() * inv_z;
+  Eigen::Matrix2d d_distort;
+  const Eigen::Vector2d x_d = Distort(x_n, &d_distort);
+  // d pixel / d x_d: the upper 2x2 of KK.
+  Eigen::Matrix2d a;
+  a << fc.x(), fc.x() * alpha_c, 0.0, fc.y();
+  if (d_point != nullptr) {
+    Eigen::Matrix<double, 2, 3> d_xn;
+    d_xn << inv_z, 0.0, -x_n.x() * inv_z, 0.0, inv_z, -x_n.y() * inv_z;
+    *d_point = a * d_distort * d_xn;
+  }
+  if (d_intrinsics != nullptr) {
+    const double x = x_n.x(), y = x_n.y();
+    const double r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;
+    Eigen::Matrix<double, 2, kNumIntrinsics>& j = *d_intrinsics;
+    j.setZero();
+    j(0, 0) = x_d.x() + alpha_c * x_d.y();  // fc1
+    j(1, 1) = x_d.y();                      // fc2
+    j(0, 2) = 1.0;                          // cc1
+    j(1, 3) = 1.0;                          // cc2
+    j(0, 4) = fc.x() * x_d.y();             // alpha_c
+    // d x_d / d kc, mapped through KK.
+    j.col(5) = a * (r2 * x_n);
+    j.col(6) = a * (r4 * x_n);
+    j.col(7) = a * Eigen::Vector2d(2.0 * x * y, r2 + 2.0 * y * y);
+    j.col(8) = a * Eigen::Vector2d(r2 + 2.0 * x * x, 2.0 * x * y);
+    j.col(9) = a * (r6 * x_n);
+  }
+  return PixelFromDistorted(x_d);
+}
+
+Eigen::Vector2d BouguetCamera::Unproject(const Eigen::Vector2d& pixel,
+                                         Eigen::Matrix2d* d_pixel) const {
+  const Eigen::Vector2d x_n = Unproject(pixel);
+  if (d_pixel != nullptr) {
+    Eigen::Matrix2d d_distort;
+    (void)Distort(x_n, &d_distort);
+    Eigen::Matrix2d a;
+    a << fc.x(), fc.x() * alpha_c, 0.0, fc.y();
+    *d_pixel = (a * d_distort).inverse();
+  }
+  return x_n;
 }
 
 BouguetCamera BouguetCamera::Undistorted() const {

@@ -18,12 +18,12 @@ namespace mm {
 
 /// Intrinsics in the toolbox's parameterization, plus the image size they belong to.
 struct BouguetCamera {
-  Eigen::Vector2d fc{1.0, 1.0};        ///< Focal lengths, pixels.
-  Eigen::Vector2d cc{0.0, 0.0};        ///< Principal point, pixels (0-based).
-  double alpha_c = 0.0;                ///< Skew coefficient (angle between axes).
-  std::array<double, 5> kc{};          ///< [k1 k2 p1 p2 k3] as in the toolbox.
-  int width = 0;                       ///< Image width, pixels (0 = unknown).
-  int height = 0;                      ///< Image height, pixels (0 = unknown).
+  Eigen::Vector2d fc{1.0, 1.0};  ///< Focal lengths, pixels.
+  Eigen::Vector2d cc{0.0, 0.0};  ///< Principal point, pixels (0-based).
+  double alpha_c = 0.0;          ///< Skew coefficient (angle between axes).
+  std::array<double, 5> kc{};    ///< [k1 k2 p1 p2 k3] as in the toolbox.
+  int width = 0;                 ///< Image width, pixels (0 = unknown).
+  int height = 0;                ///< Image height, pixels (0 = unknown).
 
   /// Optional 3-sigma uncertainties as reported by the toolbox (fc_error ...).
   struct Uncertainty {
@@ -42,15 +42,29 @@ struct BouguetCamera {
   /// Applies the distortion to a normalized point (x_n -> x_d).
   [[nodiscard]] Eigen::Vector2d Distort(const Eigen::Vector2d& x_n) const;
   /// Distortion with its 2x2 Jacobian d x_d / d x_n.
-  [[nodiscard]] Eigen::Vector2d Distort(const Eigen::Vector2d& x_n, Eigen::Matrix2d* jacobian) const;
+  [[nodiscard]] Eigen::Vector2d Distort(const Eigen::Vector2d& x_n,
+                                        Eigen::Matrix2d* jacobian) const;
   /// Inverts the distortion by Gauss-Newton on Distort(x_n) = x_d (converges to 1e-12 in a few
   /// iterations for calibrated lenses; the toolbox's comp_distortion_oulu uses fixed-point).
   [[nodiscard]] Eigen::Vector2d Undistort(const Eigen::Vector2d& x_d) const;
 
+  /// Order of the intrinsics in Jacobians and parameter vectors (the toolbox's order).
+  static constexpr int kNumIntrinsics = 10;  // fc1 fc2 cc1 cc2 alpha_c kc1 kc2 kc3 kc4 kc5
+  using IntrinsicsVector = Eigen::Matrix<double, kNumIntrinsics, 1>;
+  [[nodiscard]] IntrinsicsVector Intrinsics() const;
+  void SetIntrinsics(const IntrinsicsVector& p);
+
   /// Pixel of a point in the camera frame (Z > 0 expected).
   [[nodiscard]] Eigen::Vector2d Project(const Eigen::Vector3d& point_in_cam) const;
+  /// Projection with analytic Jacobians w.r.t. the point (2x3) and the intrinsics (2x10, order
+  /// of Intrinsics()); either may be null.
+  Eigen::Vector2d Project(const Eigen::Vector3d& point_in_cam, Eigen::Matrix<double, 2, 3>* d_point,
+                          Eigen::Matrix<double, 2, kNumIntrinsics>* d_intrinsics) const;
   /// Normalized, undistorted image coordinates [X/Z, Y/Z] of a (distorted) pixel.
   [[nodiscard]] Eigen::Vector2d Unproject(const Eigen::Vector2d& pixel) const;
+  /// Unprojection with its Jacobian d x_n / d pixel (inverse of the projection's, by the
+  /// implicit function theorem); `d_pixel` may be null.
+  Eigen::Vector2d Unproject(const Eigen::Vector2d& pixel, Eigen::Matrix2d* d_pixel) const;
 
   /// Pixel <-> distorted normalized coordinates through KK (skew included).
   [[nodiscard]] Eigen::Vector2d PixelFromDistorted(const Eigen::Vector2d& x_d) const;

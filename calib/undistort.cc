@@ -27,12 +27,23 @@ Undistorter::Undistorter(const BouguetCamera& camera)
   cv::convertMaps(map_x, map_y, map_xy_, map_frac_, CV_16SC2);
 }
 
+std::vector<cv::Point2f> Undistorter::UndistortPoints(
+    const std::vector<cv::Point2f>& distorted) const {
+  std::vector<cv::Point2f> out;
+  out.reserve(distorted.size());
+  for (const cv::Point2f& p : distorted) {
+    const Eigen::Vector2d x_n = input_.Unproject({p.x, p.y});
+    const Eigen::Vector2d q = output_.PixelFromDistorted(x_n);
+    out.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
+  }
+  return out;
+}
+
 cv::Mat Undistorter::Apply(const cv::Mat& distorted) const {
   if (distorted.cols != input_.width || distorted.rows != input_.height) {
     throw std::invalid_argument("Undistorter: frame is " + std::to_string(distorted.cols) + "x" +
                                 std::to_string(distorted.rows) + ", calibration is " +
-                                std::to_string(input_.width) + "x" +
-                                std::to_string(input_.height));
+                                std::to_string(input_.width) + "x" + std::to_string(input_.height));
   }
   if (map_xy_.empty()) return distorted;
   cv::Mat out;

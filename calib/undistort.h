@@ -6,6 +6,7 @@
 // Thread-safety: immutable after construction; Apply() is reentrant.
 
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "calib/camera_model.h"
 
@@ -19,6 +20,11 @@ class Undistorter {
   /// Undistorts a gray or colour frame of the calibrated size. Without distortion the frame is
   /// returned as is (no copy).
   [[nodiscard]] cv::Mat Apply(const cv::Mat& distorted) const;
+
+  /// Point undistortion for feature coordinates: pixels of the distorted frame -> pixels of
+  /// output_camera() (exact iterative inverse, not the tables).
+  [[nodiscard]] std::vector<cv::Point2f> UndistortPoints(
+      const std::vector<cv::Point2f>& distorted) const;
 
   /// The camera an undistorted frame is seen through.
   [[nodiscard]] const BouguetCamera& output_camera() const { return output_; }

@@ -33,15 +33,45 @@ TEST(Undistorter, MovesPointsToUndistortedProjection) {
   const Eigen::Vector2d distorted = c.Project(point);
   const Eigen::Vector2d expected = c.Undistorted().Project(point);
   cv::Mat frame(480, 640, CV_8UC1, cv::Scalar(0));
-  cv::circle(frame, cv::Point(static_cast<int>(std::lround(distorted.x())),
-                              static_cast<int>(std::lround(distorted.y()))),
+  cv::circle(frame,
+             cv::Point(static_cast<int>(std::lround(distorted.x())),
+                       static_cast<int>(std::lround(distorted.y()))),
              3, cv::Scalar(255), cv::FILLED);
   const cv::Mat out = u.Apply(frame);
   const cv::Moments m = cv::moments(out, false);
   ASSERT_GT(m.m00, 0);
   const Eigen::Vector2d centroid(m.m10 / m.m00, m.m01 / m.m00);
-  EXPECT_LT((centroid - expected).norm(), 1.0) << centroid.transpose() << " vs "
-                                               << expected.transpose();
+  EXPECT_LT((centroid - expected).norm(), 1.0)
+      << centroid.transpose() << " vs " << expected.transpose();
+}
+
+// Feature points go where the frame's pixels go: the undistorted point of a distorted pixel
+// projects back onto it, and matches the 3-D point's undistorted projection.
+TEST(Undistorter, UndistortPointsMatchesModel) {
+  BouguetCamera c;
+  c.fc = {400, 410};
+  c.cc = {319.5, 239.5};
+  c.alpha_c = 0.01;
+  c.kc = {-0.3, 0.1, 0.001, -0.001, 0.01};
+  c.width = 640;
+  c.height = 480;
+  const Undistorter u(c);
+  std::vector<cv::Point2f> pts;
+  std::vector<Eigen::Vector2d> expected;
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0.45, -0.3, 1.0), Eigen::Vector3d(-0.6, 0.4, 1.2),
+        Eigen::Vector3d(0.0, 0.0, 2.0)}) {
+    const Eigen::Vector2d d = c.Project(p);
+    pts.emplace_back(static_cast<float>(d.x()), static_cast<float>(d.y()));
+    expected.push_back(u.output_camera().Project(p));
+  }
+  const auto out = u.UndistortPoints(pts);
+  ASSERT_EQ(out.size(), pts.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    // float storage of the input pixel limits this to ~1e-4 px.
+    EXPECT_NEAR(out[i].x, expected[i].x(), 1e-3);
+    EXPECT_NEAR(out[i].y, expected[i].y(), 1e-3);
+  }
 }
 
 TEST(Undistorter, RejectsWrongFrameSize) {

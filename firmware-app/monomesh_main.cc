@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
       mm::cli::AddCtlCommand(app),
       mm::cli::AddFeedCommand(app),
       mm::cli::AddGpioTestCommand(app),
+      mm::cli::AddCalibrateCommand(app),
+      mm::cli::AddUndistortCommand(app),
   };
   CLI11_PARSE(app, argc, argv);
   mm::SetupLogging("warn");

@@ -18,5 +18,9 @@ Runner AddCtlCommand(CLI::App& app);
 Runner AddFeedCommand(CLI::App& app);
 /// Adds `gpio-test`: prints button events of a GPIO line.
 Runner AddGpioTestCommand(CLI::App& app);
+/// Adds `calibrate`: chessboard images -> Calib_Results.m, calibration.toml, report PNG.
+Runner AddCalibrateCommand(CLI::App& app);
+/// Adds `undistort`: one image through a calibration's remap tables.
+Runner AddUndistortCommand(CLI::App& app);
 
 }  // namespace mm::cli
