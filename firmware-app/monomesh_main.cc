@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   const std::vector<mm::cli::Runner> runners{
       mm::cli::AddReconCommand(app),
       mm::cli::AddCtlCommand(app),
+      mm::cli::AddRenderCommand(app),
   };
   CLI11_PARSE(app, argc, argv);
   mm::SetupLogging("warn");

@@ -14,5 +14,7 @@ using Runner = std::function<int()>;
 Runner AddReconCommand(CLI::App& app);
 /// Adds `ctl`: trigger | status | ping a running monomeshd.
 Runner AddCtlCommand(CLI::App& app);
+/// Adds `render`: a mesh (GLB) seen from a camera -> PNG (and depth), headless EGL.
+Runner AddRenderCommand(CLI::App& app);
 
 }  // namespace mm::cli
