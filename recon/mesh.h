@@ -35,7 +35,8 @@ struct MeshOptions {
   /// times the largest 10-90 percentile range of the points along x, y, z. < 0 = no voxel
   /// grid: every point is a vertex.
   double voxel_size = 0.0;
-  /// Cell edge as a fraction of the point spread when voxel_size == 0.
+  /// Cell edge as a fraction of the point spread when voxel_size == 0. From 1/24 to 1/200
+  /// the TUM figures move < 0.5 % (few hundred points: most cells hold one point).
   double voxel_auto_fraction = 1.0 / 48.0;
   /// Keep a cell only when it holds at least this many points. The thesis keeps >= 3; with
   /// the few hundred points of a 640x480 pair that leaves 0-3 vertices (measured on TUM

@@ -115,7 +115,8 @@ TEST_F(MeshQuality, TumPairsMeetTheIssueThresholds) {
         r.mesh_summary.dropped_depth_discontinuity, r.mesh_summary.dropped_grazing_angle,
         f.ncc_a, f.ncc_b, f.coverage_b, f.depth.coverage, f.depth.median_rel_err,
         f.depth.p90_rel_err);
-    // Issue 5's thresholds.
+    // Issue 5's thresholds. Measured with the defaults: (0,2) NCC A 0.992, B 0.979, depth
+    // coverage 0.596, median 2.37 %, p90 12.8 %; (0,3) 0.988, 0.931, 0.513, 3.50 %, 21.2 %.
     EXPECT_GE(f.ncc_a, 0.95);
     EXPECT_GE(f.ncc_b, 0.7);
     EXPECT_LE(f.depth.median_rel_err, 0.05);
