@@ -48,7 +48,12 @@ if command -v colmap >/dev/null; then
   mkdir -p "$work/model"
   cp "$entry/cameras.txt" "$entry/images.txt" "$entry/points3D.txt" "$work/model/"
   QT_QPA_PLATFORM=offscreen colmap model_analyzer --path "$work/model" 2>&1 | tee "$work/colmap.txt"
-  grep -q "Points: *$points" "$work/colmap.txt" || fail "colmap model_analyzer disagrees on points"
+  grep -q "Points: *$points\$" "$work/colmap.txt" || fail "colmap model_analyzer disagrees on points"
+  grep -q "Observations: *$((2 * points))\$" "$work/colmap.txt" || fail "colmap: not 2 observations per point"
+  # COLMAP recomputes the reprojection error from our poses, K and pixels (+0.5 convention):
+  # measured 0.15 px on this pair; a wrong pixel or pose convention gives pixels of error.
+  err=$(sed -n 's/.*Mean reprojection error: *\([0-9.]*\)px.*/\1/p' "$work/colmap.txt")
+  awk -v e="${err:-99}" 'BEGIN { exit !(e < 1.0) }' || fail "colmap reprojection error ${err:-?} px"
 else
   echo "colmap not installed: model_analyzer skipped (the parser test in recon/mesh_test runs)"
 fi
