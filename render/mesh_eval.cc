@@ -91,6 +91,30 @@ MeshDepthEval EvaluateMeshDepth(const Mesh& mesh, const RenderCamera& camera,
   return EvaluateMeshDepth(renderer, mesh, camera, gt_depth_m, scale);
 }
 
+MeshDepthEval EvaluatePairMesh(const PairReconstruction& pair, const Eigen::Matrix3d& K,
+                               const cv::Mat& gt_depth_m) {
+  MeshDepthEval out;
+  if (!pair.success) {
+    out.failure_reason = "the pair failed: " + pair.failure_reason;
+    return out;
+  }
+  if (gt_depth_m.type() != CV_32FC1) {
+    out.failure_reason = "ground truth must be CV_32FC1 (metres)";
+    return out;
+  }
+  const double scale = ScaleFromPoints(pair.geometry.points_in_cam_a, pair.point_pixels_a,
+                                       gt_depth_m);
+  if (!(scale > 0)) {
+    out.failure_reason = "no triangulated point has ground-truth depth";
+    return out;
+  }
+  RenderCamera camera;
+  camera.K = K;
+  camera.width = gt_depth_m.cols;
+  camera.height = gt_depth_m.rows;
+  return EvaluateMeshDepth(pair.mesh, camera, gt_depth_m, scale);
+}
+
 double MaskedNcc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
   CV_Assert(a.size() == b.size() && a.size() == mask.size() && mask.type() == CV_8UC1);
   cv::Mat ga = a, gb = b;

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "recon/mesh.h"
+#include "recon/pipeline.h"
 #include "render/renderer.h"
 
 namespace mm {
@@ -38,6 +39,12 @@ MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const Rend
 /// Same, with a renderer of its own (EGL set-up costs ~40 ms).
 MeshDepthEval EvaluateMeshDepth(const Mesh& mesh, const RenderCamera& camera,
                                 const cv::Mat& gt_depth_m, double scale);
+
+/// For `monomesh eval`: the pair's mesh against keyframe A's ground-truth depth (CV_32FC1,
+/// metres, 0 = missing, A's image size), the scale from the pair's triangulated points
+/// (ScaleFromPoints). JSON: "mesh": {"coverage", "depth_rel_err": {"median", "p90"}}.
+MeshDepthEval EvaluatePairMesh(const PairReconstruction& pair, const Eigen::Matrix3d& K,
+                               const cv::Mat& gt_depth_m);
 
 /// Normalized cross-correlation of the grey levels of two BGR8 (or GRAY8) images over the
 /// pixels where `mask` is non-zero; 0 when fewer than 2 pixels or no variance.

@@ -121,6 +121,11 @@ TEST_F(MeshQuality, TumPairsMeetTheIssueThresholds) {
     EXPECT_GE(f.ncc_b, 0.7);
     EXPECT_LE(f.depth.median_rel_err, 0.05);
     EXPECT_GE(f.depth.coverage, 0.40);
+    // The one-call form for `monomesh eval` gives the same figures.
+    const MeshDepthEval e = EvaluatePairMesh(r, camera_.K(), gt_depth_);
+    ASSERT_TRUE(e.success) << e.failure_reason;
+    EXPECT_NEAR(e.median_rel_err, f.depth.median_rel_err, 1e-9);
+    EXPECT_NEAR(e.coverage, f.depth.coverage, 1e-9);
   }
 }
 

@@ -5,6 +5,7 @@
 #include <GLES3/gl3.h>
 
 #include <cstdio>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <utility>
 #include <vector>
@@ -148,12 +149,23 @@ Eigen::Matrix4f GlProjectionFromK(const Eigen::Matrix3d& K, int width, int heigh
   return P.cast<float>();
 }
 
+// The surfaceless EGLDisplay is one per process, shared by every Renderer: it is initialized
+// by the first and terminated with the last (eglTerminate would pull it from under the others).
+namespace {
+std::mutex display_mutex;
+int display_users = 0;  // Guarded by display_mutex.
+}  // namespace
+
 struct Renderer::Impl {
-  // Destroyed in reverse order: GL names, then the context, then the display.
+  // Destroyed in reverse order: GL names (with this context made current first, in ~Impl),
+  // then the context, then the display reference.
   struct Display {
     EGLDisplay handle = EGL_NO_DISPLAY;
+    bool counted = false;
     ~Display() {
-      if (handle != EGL_NO_DISPLAY) eglTerminate(handle);
+      if (!counted) return;
+      std::lock_guard<std::mutex> lock(display_mutex);
+      if (--display_users == 0) eglTerminate(handle);
     }
   } display;
   struct Context {
@@ -161,7 +173,9 @@ struct Renderer::Impl {
     EGLContext handle = EGL_NO_CONTEXT;
     ~Context() {
       if (handle != EGL_NO_CONTEXT) {
-        eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        if (eglGetCurrentContext() == handle) {
+          eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        }
         eglDestroyContext(display, handle);
       }
     }
@@ -170,8 +184,17 @@ struct Renderer::Impl {
   GLint u_projection = -1, u_cam_from_world = -1, u_texture = -1, u_textured = -1, u_far = -1;
   std::string error;
 
+  ~Impl() { MakeCurrent(); }  // The GL names below are deleted in this context.
   bool Init();
   bool BuildProgram();
+  /// Makes this renderer's context current on the calling thread (another Renderer may have
+  /// taken it).
+  bool MakeCurrent() {
+    if (context.handle == EGL_NO_CONTEXT) return false;
+    if (eglGetCurrentContext() == context.handle) return true;
+    return eglMakeCurrent(display.handle, EGL_NO_SURFACE, EGL_NO_SURFACE, context.handle) ==
+           EGL_TRUE;
+  }
 };
 
 bool Renderer::Impl::Init() {
@@ -186,11 +209,15 @@ bool Renderer::Impl::Init() {
     error = "EGL: no surfaceless display (EGL_MESA_platform_surfaceless; Mesa's libegl-mesa0)";
     return false;
   }
-  EGLint major = 0, minor = 0;
-  if (!eglInitialize(display.handle, &major, &minor)) {
-    error = "EGL: eglInitialize failed " + Hex(static_cast<unsigned>(eglGetError()));
-    display.handle = EGL_NO_DISPLAY;
-    return false;
+  {
+    std::lock_guard<std::mutex> lock(display_mutex);
+    EGLint major = 0, minor = 0;
+    if (!eglInitialize(display.handle, &major, &minor)) {  // Idempotent when initialized.
+      error = "EGL: eglInitialize failed " + Hex(static_cast<unsigned>(eglGetError()));
+      return false;
+    }
+    ++display_users;
+    display.counted = true;
   }
   if (!eglBindAPI(EGL_OPENGL_ES_API)) {
     error = "EGL: OpenGL ES API unavailable";
@@ -269,7 +296,7 @@ bool Renderer::ok() const { return impl_->error.empty(); }
 const std::string& Renderer::error() const { return impl_->error; }
 
 std::string Renderer::gl_renderer() const {
-  if (!ok()) return {};
+  if (!ok() || !impl_->MakeCurrent()) return {};
   const auto* s = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   return s != nullptr ? s : "";
 }
@@ -279,6 +306,11 @@ RenderResult Renderer::Render(const Mesh& mesh, const cv::Mat& texture_bgr,
   RenderResult out;
   if (!ok()) {
     out.failure_reason = impl_->error;
+    return out;
+  }
+  if (!impl_->MakeCurrent()) {
+    out.failure_reason = "EGL: cannot make the context current " +
+                         Hex(static_cast<unsigned>(eglGetError()));
     return out;
   }
   if (const std::string problem = camera.Check(); !problem.empty()) {

@@ -177,6 +177,29 @@ TEST_F(RendererTest, PreviewHasBothViews) {
   EXPECT_LT(oblique, cv::countNonZero(gray.colRange(0, kW)));
 }
 
+// A second Renderer on the same thread (the daemon's preview next to an evaluation) takes the
+// current context and, when it goes, must neither terminate the shared display nor leave the
+// first renderer without its context.
+TEST_F(RendererTest, SurvivesAnotherRendererComingAndGoing) {
+  ASSERT_TRUE(renderer_->ok()) << renderer_->error();
+  const Eigen::Matrix3d K = TestK();
+  const Mesh mesh = Quad(K, 2.0, 20, 10, 139, 99);
+  RenderCamera cam;
+  cam.K = K;
+  cam.width = kW;
+  cam.height = kH;
+  {
+    Renderer other;
+    ASSERT_TRUE(other.ok()) << other.error();
+    EXPECT_EQ(other.Render(mesh, Texture(), cam).covered_pixels,
+              renderer_->Render(mesh, Texture(), cam).covered_pixels);
+  }
+  const RenderResult r = renderer_->Render(mesh, Texture(), cam);
+  ASSERT_TRUE(r.success) << r.failure_reason;
+  EXPECT_NEAR(r.covered_pixels, 120 * 90, 120 + 90);
+  EXPECT_NEAR(r.depth.at<float>(50, 80), 2.0f, 1e-4);
+}
+
 TEST(RenderCamera, CheckNamesTheBadField) {
   RenderCamera cam;
   EXPECT_NE(cam.Check().find("width"), std::string::npos);
