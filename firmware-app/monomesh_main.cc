@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
       mm::cli::AddGpioTestCommand(app),
       mm::cli::AddCalibrateCommand(app),
       mm::cli::AddUndistortCommand(app),
+      mm::cli::AddRenderCommand(app),
   };
   CLI11_PARSE(app, argc, argv);
   mm::SetupLogging("warn");

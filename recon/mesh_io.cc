@@ -1,6 +1,9 @@
 #include "recon/mesh_io.h"
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <sstream>
 
@@ -74,6 +77,110 @@ std::string EncodeMtl(const std::string& texture_file, const std::string& materi
       << "Ka 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n"
       << "map_Kd " << texture_file << "\n";
   return out.str();
+}
+
+std::string EncodePointsPly(std::span<const Eigen::Vector3d> points,
+                            std::span<const Eigen::Matrix<uint8_t, 3, 1>> colors_rgb,
+                            const std::string& comment) {
+  const bool has_colors = !colors_rgb.empty() && colors_rgb.size() == points.size();
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\n";
+  if (!comment.empty()) header << "comment " << comment << "\n";
+  header << "element vertex " << points.size() << "\n"
+         << "property float x\nproperty float y\nproperty float z\n";
+  if (has_colors) header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  header << "end_header\n";
+  std::string out = header.str();
+  out.reserve(out.size() + points.size() * 15);
+  for (size_t i = 0; i < points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) Append(&out, static_cast<float>(points[i][k]));
+    if (has_colors) {
+      for (int k = 0; k < 3; ++k) Append(&out, colors_rgb[i][k]);
+    }
+  }
+  return out;
+}
+
+ColmapText EncodeColmapText(const ColmapInput& in) {
+  ColmapText out;
+  const size_t n =
+      std::min({in.points_in_cam_a.size(), in.pixels_a.size(), in.pixels_b.size()});
+  const bool has_colors = in.colors_rgb.size() >= n;
+  {
+    std::ostringstream c;
+    c.precision(10);
+    c << "# Camera list with one line of data per camera:\n"
+      << "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+      << "# Number of cameras: 1\n";
+    if (in.K(0, 1) != 0.0) c << "# monomesh: skew " << in.K(0, 1) << " dropped (PINHOLE)\n";
+    c << "1 PINHOLE " << in.width << " " << in.height << " " << in.K(0, 0) << " " << in.K(1, 1)
+      << " " << in.K(0, 2) + 0.5 << " " << in.K(1, 2) + 0.5 << "\n";
+    out.cameras = c.str();
+  }
+  {
+    std::ostringstream im;
+    im.precision(12);
+    im << "# Image list with two lines of data per image:\n"
+       << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
+       << "#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
+       << "# Number of images: 2, mean observations per image: " << n << "\n"
+       << "# monomesh: up to scale (|t| = 1, the baseline, is the unit)\n";
+    const Eigen::Quaterniond qb(in.rotation_b_from_a);
+    const Eigen::Vector3d& t = in.translation_b_from_a;
+    im << "1 1 0 0 0 0 0 0 1 " << in.image_a_name << "\n";
+    for (size_t i = 0; i < n; ++i) {
+      im << (i ? " " : "") << in.pixels_a[i].x() + 0.5 << " " << in.pixels_a[i].y() + 0.5 << " "
+         << i + 1;
+    }
+    im << "\n2 " << qb.w() << " " << qb.x() << " " << qb.y() << " " << qb.z() << " " << t.x()
+       << " " << t.y() << " " << t.z() << " 1 " << in.image_b_name << "\n";
+    for (size_t i = 0; i < n; ++i) {
+      im << (i ? " " : "") << in.pixels_b[i].x() + 0.5 << " " << in.pixels_b[i].y() + 0.5 << " "
+         << i + 1;
+    }
+    im << "\n";
+    out.images = im.str();
+  }
+  {
+    // Reprojection error per point: the mean over its two observations (pixels).
+    Eigen::Matrix3d K = in.K;
+    std::ostringstream pt;
+    pt.precision(10);
+    pt << "# 3D point list with one line of data per point:\n"
+       << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
+       << "# Number of points: " << n << "\n";
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d& p = in.points_in_cam_a[i];
+      const Eigen::Vector3d pb = in.rotation_b_from_a * p + in.translation_b_from_a;
+      const double err = 0.5 * (((K * p).hnormalized() - in.pixels_a[i]).norm() +
+                                ((K * pb).hnormalized() - in.pixels_b[i]).norm());
+      const int r = has_colors ? in.colors_rgb[i][0] : 128;
+      const int g = has_colors ? in.colors_rgb[i][1] : 128;
+      const int b = has_colors ? in.colors_rgb[i][2] : 128;
+      pt << i + 1 << " " << p.x() << " " << p.y() << " " << p.z() << " " << r << " " << g << " "
+         << b << " " << (std::isfinite(err) ? err : 0.0) << " 1 " << i << " 2 " << i << "\n";
+    }
+    out.points3d = pt.str();
+  }
+  return out;
+}
+
+std::vector<Eigen::Matrix<uint8_t, 3, 1>> SampleColors(const cv::Mat& image_bgr,
+                                                       std::span<const Eigen::Vector2d> pixels) {
+  std::vector<Eigen::Matrix<uint8_t, 3, 1>> out;
+  out.reserve(pixels.size());
+  for (const Eigen::Vector2d& px : pixels) {
+    const int u = std::clamp(static_cast<int>(std::lround(px.x())), 0, image_bgr.cols - 1);
+    const int v = std::clamp(static_cast<int>(std::lround(px.y())), 0, image_bgr.rows - 1);
+    if (image_bgr.type() == CV_8UC3) {
+      const cv::Vec3b bgr = image_bgr.at<cv::Vec3b>(v, u);
+      out.emplace_back(bgr[2], bgr[1], bgr[0]);
+    } else {
+      const uint8_t g = image_bgr.at<uint8_t>(v, u);
+      out.emplace_back(g, g, g);
+    }
+  }
+  return out;
 }
 
 }  // namespace mm

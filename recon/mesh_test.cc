@@ -3,8 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cstring>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "recon/mesh_gltf.h"
 #include "recon/mesh_io.h"
 
 namespace mm {
@@ -61,12 +64,109 @@ TEST(DelaunayMesh, DropsDepthDiscontinuitiesWhenAsked) {
             summary.delaunay_triangles);
 }
 
-TEST(DelaunayMesh, IgnoresPointsOutsideTheImage) {
-  std::vector<Eigen::Vector3d> points{{0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {5, 5, 1}};
-  std::vector<Eigen::Vector2d> pixels{{1, 1}, {50, 1}, {1, 50}, {500, 500}};
-  const Mesh mesh = BuildDelaunayMesh(points, pixels, 100, 100, MeshOptions{});
+Eigen::Matrix3d GridK() {
+  Eigen::Matrix3d K;
+  K << 100, 0, 50, 0, 100, 50, 0, 0, 1;
+  return K;
+}
+
+TEST(DelaunayMesh, IgnoresPointsOutsideTheImageAndBehindTheCamera) {
+  std::vector<Eigen::Vector3d> points{{0, 0, 1}, {0.3, 0, 1}, {0, 0.3, 1}, {5, 5, 1}, {0, 0, -1}};
+  MeshOptions options;
+  options.voxel_size = -1;
+  MeshSummary summary;
+  const Mesh mesh = BuildDelaunayMesh(points, GridK(), 100, 100, options, &summary);
+  EXPECT_EQ(summary.points_in_image, 3);
   EXPECT_EQ(mesh.vertices.size(), 3u);
   EXPECT_EQ(mesh.triangles.size(), 1u);
+}
+
+TEST(DelaunayMesh, FitsTheCameraMatrixFromPointsAndPixels) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> pixels;
+  MakeGrid(5, &points, &pixels);
+  for (size_t i = 0; i < points.size(); ++i) points[i] *= 1.0 + 0.1 * static_cast<double>(i % 3);
+  const Eigen::Matrix3d K = FitCameraMatrix(points, pixels);
+  EXPECT_TRUE(K.isApprox(GridK(), 1e-9)) << K;
+}
+
+TEST(DelaunayMesh, VoxelGridKeepsCellsWithEnoughPointsAtCentreOrCentroid) {
+  // Three points in cell (0,0,20) of size 0.1, one alone in cell (2,0,20).
+  const std::vector<Eigen::Vector3d> points{
+      {0.01, 0.02, 2.01}, {0.03, 0.04, 2.03}, {0.05, 0.06, 2.05}, {0.25, 0.05, 2.05}};
+  MeshOptions options;
+  options.voxel_size = 0.1;
+  options.min_points_per_cell = 3;
+  options.voxel_vertex = VoxelVertex::kCentroid;
+  MeshSummary summary;
+  Mesh mesh = BuildDelaunayMesh(points, GridK(), 100, 100, options, &summary);
+  EXPECT_EQ(summary.occupied_cells, 2);
+  EXPECT_EQ(summary.kept_cells, 1);
+  ASSERT_EQ(mesh.vertices.size(), 1u);
+  EXPECT_TRUE(mesh.vertices[0].isApprox(Eigen::Vector3f(0.03f, 0.04f, 2.03f), 1e-5f));
+  // The UV is the vertex's projection through K.
+  EXPECT_NEAR(mesh.uvs[0].x(), (100 * 0.03 / 2.03 + 50 + 0.5) / 100, 1e-5);
+  options.voxel_vertex = VoxelVertex::kCellCentre;
+  mesh = BuildDelaunayMesh(points, GridK(), 100, 100, options, &summary);
+  ASSERT_EQ(mesh.vertices.size(), 1u);
+  EXPECT_TRUE(mesh.vertices[0].isApprox(Eigen::Vector3f(0.05f, 0.05f, 2.05f), 1e-5f));
+  options.min_points_per_cell = 1;
+  mesh = BuildDelaunayMesh(points, GridK(), 100, 100, options, &summary);
+  EXPECT_EQ(mesh.vertices.size(), 2u);
+}
+
+TEST(DelaunayMesh, AutomaticCellSizeFollowsThePointSpread) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> pixels;
+  MakeGrid(11, &points, &pixels);  // x and y span [-0.8, 0.8]: 10-90 % range 1.28.
+  MeshOptions options;
+  options.voxel_auto_fraction = 0.25;
+  MeshSummary summary;
+  BuildDelaunayMesh(points, GridK(), 100, 100, options, &summary);
+  EXPECT_NEAR(summary.voxel_size, 0.25 * 1.28, 1e-9);
+  EXPECT_LT(summary.kept_cells, 121);  // Coarse cells merge points.
+  for (auto& p : points) p *= 2.0;
+  MeshSummary doubled;
+  BuildDelaunayMesh(points, GridK(), 100, 100, options, &doubled);
+  EXPECT_NEAR(doubled.voxel_size, 2 * summary.voxel_size, 1e-9);
+  EXPECT_EQ(doubled.kept_cells, summary.kept_cells);
+}
+
+TEST(DelaunayMesh, DropsTrianglesSeenAtGrazingAngles) {
+  // A plane seen almost edge-on: z grows fast with x (the normal is ~80 deg off the rays).
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) {
+      const double x = 0.1 * i - 0.25, y = 0.1 * j - 0.25;
+      points.emplace_back(x, y, 2.0 + 0.6 * x / 0.1);
+    }
+  }
+  MeshOptions options;
+  options.voxel_size = -1;
+  options.max_depth_ratio = 0;
+  options.max_grazing_angle_deg = 0;
+  MeshSummary kept;
+  BuildDelaunayMesh(points, GridK(), 100, 100, options, &kept);
+  EXPECT_EQ(kept.dropped_grazing_angle, 0);
+  options.max_grazing_angle_deg = 60;
+  MeshSummary dropped;
+  const Mesh mesh = BuildDelaunayMesh(points, GridK(), 100, 100, options, &dropped);
+  EXPECT_GT(dropped.dropped_grazing_angle, kept.triangles / 2);
+  EXPECT_EQ(dropped.triangles + dropped.dropped_grazing_angle, dropped.delaunay_triangles);
+  EXPECT_EQ(static_cast<int>(mesh.triangles.size()), dropped.triangles);
+}
+
+TEST(MeshOptions, CheckNamesTheBadField) {
+  MeshOptions o;
+  EXPECT_EQ(o.Check(), "");
+  o.min_points_per_cell = 0;
+  EXPECT_NE(o.Check().find("min_points_per_cell"), std::string::npos);
+  o = MeshOptions{};
+  o.max_grazing_angle_deg = 95;
+  EXPECT_NE(o.Check().find("max_grazing_angle_deg"), std::string::npos);
+  o = MeshOptions{};
+  o.voxel_auto_fraction = 0;
+  EXPECT_NE(o.Check().find("voxel_auto_fraction"), std::string::npos);
 }
 
 TEST(MeshIo, PlyHeaderAndSizeMatchContent) {
@@ -106,6 +206,127 @@ TEST(MeshIo, ObjReferencesMaterialAndTexCoords) {
   EXPECT_EQ(f, static_cast<int>(mesh.triangles.size()));
   EXPECT_NE(obj.find("mtllib mesh.mtl"), std::string::npos);
   EXPECT_NE(EncodeMtl("texture.jpg").find("map_Kd texture.jpg"), std::string::npos);
+}
+
+TEST(MeshIo, GlbRoundTripsGeometryUvsAndTexture) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> pixels;
+  MakeGrid(5, &points, &pixels);
+  const Mesh mesh = BuildDelaunayMesh(points, GridK(), 100, 100, MeshOptions{});
+  cv::Mat texture(100, 100, CV_8UC3, cv::Scalar(10, 200, 30));
+  std::vector<uchar> jpeg;
+  cv::imencode(".jpg", texture, jpeg);
+  const std::string glb = EncodeGlb(mesh, std::string(jpeg.begin(), jpeg.end()));
+  ASSERT_GE(glb.size(), 12u);
+  EXPECT_EQ(glb.substr(0, 4), "glTF");
+  EXPECT_NE(glb.find("up to scale"), std::string::npos);
+  Mesh back;
+  cv::Mat back_texture;
+  ASSERT_EQ(DecodeGlb(glb, &back, &back_texture), "");
+  ASSERT_EQ(back.vertices.size(), mesh.vertices.size());
+  ASSERT_EQ(back.triangles.size(), mesh.triangles.size());
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    EXPECT_TRUE(back.vertices[i].isApprox(mesh.vertices[i])) << i;
+    EXPECT_TRUE(back.uvs[i].isApprox(mesh.uvs[i])) << i;
+  }
+  EXPECT_EQ(back.triangles, mesh.triangles);
+  ASSERT_EQ(back_texture.size(), texture.size());
+  EXPECT_NEAR(back_texture.at<cv::Vec3b>(50, 50)[1], 200, 3);
+  EXPECT_NE(DecodeGlb("not a glb", &back, &back_texture), "");
+}
+
+TEST(MeshIo, PointsPlyHasOneVertexPerPointAndNoFaces) {
+  const std::vector<Eigen::Vector3d> points{{0, 0, 1}, {1, 2, 3}};
+  const std::vector<Eigen::Matrix<uint8_t, 3, 1>> colors{{1, 2, 3}, {4, 5, 6}};
+  const std::string ply = EncodePointsPly(points, colors, "points");
+  const auto end = ply.find("end_header\n");
+  ASSERT_NE(end, std::string::npos);
+  EXPECT_NE(ply.find("element vertex 2\n"), std::string::npos);
+  EXPECT_EQ(ply.find("element face"), std::string::npos);
+  ASSERT_EQ(ply.size() - (end + 11), 2u * 15);
+  float y = 0;
+  std::memcpy(&y, ply.data() + end + 11 + 15 + 4, 4);
+  EXPECT_EQ(y, 2.0f);
+  EXPECT_EQ(static_cast<uint8_t>(ply[end + 11 + 15 + 12]), 4);
+}
+
+// A reader for the COLMAP text files, independent of the writer: it parses what
+// https://colmap.github.io/format.html specifies and checks the model is consistent.
+TEST(MeshIo, ColmapTextReadsBackConsistently) {
+  Eigen::Matrix3d K;
+  K << 500, 0, 319.5, 0, 510, 239.5, 0, 0, 1;
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();
+  const Eigen::Vector3d t = Eigen::Vector3d(-1, 0.1, 0.05).normalized();
+  std::vector<Eigen::Vector3d> points{{0.1, 0.2, 4}, {-0.5, 0.3, 5}, {0.7, -0.4, 6}};
+  std::vector<Eigen::Vector2d> pa, pb;
+  for (const auto& p : points) {
+    pa.push_back((K * p).hnormalized());
+    pb.push_back((K * (R * p + t)).hnormalized());
+  }
+  ColmapInput in;
+  in.width = 640;
+  in.height = 480;
+  in.K = K;
+  in.rotation_b_from_a = R;
+  in.translation_b_from_a = t;
+  in.points_in_cam_a = points;
+  in.pixels_a = pa;
+  in.pixels_b = pb;
+  const ColmapText text = EncodeColmapText(in);
+
+  auto data_lines = [](const std::string& s) {
+    std::vector<std::string> out;
+    std::istringstream is(s);
+    std::string line;
+    while (std::getline(is, line)) {
+      if (!line.empty() && line[0] != '#') out.push_back(line);
+    }
+    return out;
+  };
+  const auto cams = data_lines(text.cameras);
+  ASSERT_EQ(cams.size(), 1u);
+  std::istringstream cam(cams[0]);
+  int cam_id, w, h;
+  std::string model;
+  double fx, fy, cx, cy;
+  cam >> cam_id >> model >> w >> h >> fx >> fy >> cx >> cy;
+  EXPECT_EQ(model, "PINHOLE");
+  EXPECT_EQ(w, 640);
+  EXPECT_DOUBLE_EQ(cx, 320.0);  // COLMAP's pixel centres are at +0.5.
+
+  const auto images = data_lines(text.images);
+  ASSERT_EQ(images.size(), 4u);  // Two lines per image.
+  std::istringstream img2(images[2]);
+  int id;
+  double qw, qx, qy, qz, tx, ty, tz;
+  img2 >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz;
+  EXPECT_EQ(id, 2);
+  const Eigen::Matrix3d R2 = Eigen::Quaterniond(qw, qx, qy, qz).toRotationMatrix();
+  EXPECT_TRUE(R2.isApprox(R, 1e-9));
+
+  const auto pts = data_lines(text.points3d);
+  ASSERT_EQ(pts.size(), points.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    std::istringstream p(pts[i]);
+    int pid, r, g, b, im_a, idx_a, im_b, idx_b;
+    double x, y, z, err;
+    p >> pid >> x >> y >> z >> r >> g >> b >> err >> im_a >> idx_a >> im_b >> idx_b;
+    ASSERT_TRUE(p) << pts[i];
+    EXPECT_EQ(im_a, 1);
+    EXPECT_EQ(im_b, 2);
+    EXPECT_LT(err, 1e-6);
+    // The track's POINT2D in image 2 is the point projected with the image's pose.
+    std::istringstream obs(images[3]);
+    double u = 0, v = 0;
+    long p3d = 0;
+    for (int k = 0; k <= idx_b; ++k) obs >> u >> v >> p3d;
+    EXPECT_EQ(p3d, pid);
+    const Eigen::Vector3d X(x, y, z);
+    const Eigen::Vector3d Xc = R2 * X + Eigen::Vector3d(tx, ty, tz);
+    EXPECT_NEAR(fx * Xc.x() / Xc.z() + cx, u, 1e-5);
+    EXPECT_NEAR(fy * Xc.y() / Xc.z() + cy, v, 1e-5);
+  }
 }
 
 }  // namespace

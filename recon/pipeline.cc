@@ -70,6 +70,7 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
   start = Clock::now();
   for (int index : out.geometry.point_correspondence) {
     out.point_pixels_a.push_back(pixels_a[static_cast<size_t>(index)]);
+    out.point_pixels_b.push_back(pixels_b[static_cast<size_t>(index)]);
   }
   out.mesh = BuildDelaunayMesh(out.geometry.points_in_cam_a, out.point_pixels_a, image_a.cols,
                                image_a.rows, options.mesh, &out.mesh_summary);

@@ -42,6 +42,7 @@ struct PairReconstruction {
   int matches = 0;
   TwoViewResult geometry;
   std::vector<Eigen::Vector2d> point_pixels_a;  ///< Where each 3-D point was observed in A.
+  std::vector<Eigen::Vector2d> point_pixels_b;  ///< Where each 3-D point was observed in B.
   Mesh mesh;
   MeshSummary mesh_summary;
   StageTimes times;

@@ -5,7 +5,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/calib_io.h"
+#include "recon/mesh_gltf.h"
 #include "recon/mesh_io.h"
+#include "render/mesh_eval.h"
+#include "render/renderer.h"
 
 namespace mm {
 namespace {
@@ -56,7 +59,18 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                       {"mesh_vertices", r.mesh.vertices.size()},
                       {"mesh_triangles", r.mesh.triangles.size()},
                       {"mesh_dropped_depth_discontinuity",
-                       r.mesh_summary.dropped_depth_discontinuity}};
+                       r.mesh_summary.dropped_depth_discontinuity},
+                      {"mesh_dropped_grazing_angle", r.mesh_summary.dropped_grazing_angle}};
+  report["meshing"] = {{"voxel_size", r.mesh_summary.voxel_size},
+                       {"occupied_cells", r.mesh_summary.occupied_cells},
+                       {"kept_cells", r.mesh_summary.kept_cells},
+                       {"delaunay_triangles", r.mesh_summary.delaunay_triangles},
+                       {"max_depth_ratio", options.mesh.max_depth_ratio},
+                       {"max_grazing_angle_deg", options.mesh.max_grazing_angle_deg},
+                       {"min_points_per_cell", options.mesh.min_points_per_cell},
+                       {"voxel_vertex", options.mesh.voxel_vertex == VoxelVertex::kCentroid
+                                            ? "centroid"
+                                            : "cell_centre"}};
   report["quality"] = {{"median_triangulation_angle_deg", g.median_triangulation_angle_deg},
                        {"reprojection_rms_px", g.reprojection_rms_px}};
   report["timings_s"] = {{"features_a", r.times.features_a_s},
@@ -70,16 +84,62 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
     out.error = r.failure_reason;
     return out;
   }
-  std::vector<uchar> jpeg;
+  std::vector<uchar> jpeg, jpeg_b;
   cv::imencode(".jpg", image_a, jpeg, {cv::IMWRITE_JPEG_QUALITY, 92});
+  cv::imencode(".jpg", image_b, jpeg_b, {cv::IMWRITE_JPEG_QUALITY, 92});
+  const std::string texture(jpeg.begin(), jpeg.end());
+  // mesh.glb is the primary output (one file, texture inside).
+  out.files.push_back({"mesh.glb", EncodeGlb(r.mesh, texture)});
   out.files.push_back({"mesh.ply", EncodePly(r.mesh, "monomesh two-view mesh, up to scale")});
   out.files.push_back({"mesh.obj", EncodeObj(r.mesh, "mesh.mtl")});
   out.files.push_back({"mesh.mtl", EncodeMtl("texture.jpg")});
-  out.files.push_back({"texture.jpg", std::string(jpeg.begin(), jpeg.end())});
+  out.files.push_back({"texture.jpg", texture});
+  out.files.push_back({"keyframe_b.jpg", std::string(jpeg_b.begin(), jpeg_b.end())});
+  const auto point_colors = SampleColors(image_a, r.point_pixels_a);
+  out.files.push_back({"points.ply", EncodePointsPly(g.points_in_cam_a, point_colors,
+                                                     "monomesh two-view points, up to scale")});
+  // The sparse model for COLMAP / OpenMVS: the entry folder is the model folder.
+  ColmapInput colmap;
+  colmap.width = image_a.cols;
+  colmap.height = image_a.rows;
+  colmap.K = camera.K();
+  colmap.rotation_b_from_a = g.rotation;
+  colmap.translation_b_from_a = g.translation;
+  colmap.image_a_name = "texture.jpg";
+  colmap.image_b_name = "keyframe_b.jpg";
+  colmap.points_in_cam_a = g.points_in_cam_a;
+  colmap.pixels_a = r.point_pixels_a;
+  colmap.pixels_b = r.point_pixels_b;
+  colmap.colors_rgb = point_colors;
+  const ColmapText colmap_text = EncodeColmapText(colmap);
+  out.files.push_back({"cameras.txt", colmap_text.cameras});
+  out.files.push_back({"images.txt", colmap_text.images});
+  out.files.push_back({"points3D.txt", colmap_text.points3d});
   out.files.push_back({"calibration.toml", FormatCalibrationToml(camera)});
+  // preview.png: the mesh from A beside an oblique view from above (EGL, headless). A
+  // machine without EGL still gets its entry; the report says why there is no preview.
+  {
+    const auto render_start = std::chrono::steady_clock::now();
+    Renderer renderer;
+    std::string preview_error = renderer.error();
+    cv::Mat preview;
+    if (renderer.ok()) {
+      preview = RenderPreview(renderer, r.mesh, image_a, camera.K(), image_a.cols, image_a.rows,
+                              &preview_error);
+    }
+    std::vector<uchar> png;
+    if (!preview.empty() && cv::imencode(".png", preview, png)) {
+      out.files.push_back({"preview.png", std::string(png.begin(), png.end())});
+      report["preview"] = {{"file", "preview.png"}, {"renderer", renderer.gl_renderer()}};
+    } else {
+      report["preview"] = {{"error", preview_error.empty() ? "PNG encoding failed" : preview_error}};
+    }
+    report["timings_s"]["preview"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - render_start).count();
+  }
   report["timings_s"]["encode"] =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() -
-      r.times.total_s();
+      r.times.total_s() - report["timings_s"]["preview"].get<double>();
   // report.json is written last, so a reader that sees it knows the entry's other files.
   out.files.push_back({"report.json", report.dump(2) + "\n"});
   out.ok = true;

@@ -1,7 +1,8 @@
 #pragma once
 // One capture's work after both keyframes are in: reconstruct the pair and encode everything a
-// spool entry holds (mesh.ply, mesh.obj + mesh.mtl + texture.jpg, calibration.toml,
-// report.json). Shared by `monomesh recon` and the daemon's worker.
+// spool entry holds (mesh.glb, mesh.ply, mesh.obj + mesh.mtl + texture.jpg, points.ply, the
+// COLMAP model cameras.txt + images.txt + points3D.txt with keyframe_b.jpg, preview.png,
+// calibration.toml, report.json). Shared by `monomesh recon` and the daemon's worker.
 
 #include <nlohmann/json.hpp>
 #include <string>

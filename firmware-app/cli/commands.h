@@ -22,5 +22,7 @@ Runner AddGpioTestCommand(CLI::App& app);
 Runner AddCalibrateCommand(CLI::App& app);
 /// Adds `undistort`: one image through a calibration's remap tables.
 Runner AddUndistortCommand(CLI::App& app);
+/// Adds `render`: a mesh (GLB) seen from a camera -> PNG (and depth), headless EGL.
+Runner AddRenderCommand(CLI::App& app);
 
 }  // namespace mm::cli

@@ -1,0 +1,34 @@
+#pragma once
+// glTF 2.0 binary (GLB) encoder and decoder for the textured mesh, with tinygltf. One file:
+// positions, texture coordinates, indices and the JPEG texture in the binary chunk, one
+// material (base colour texture, KHR_materials_unlit: the texture is the photograph).
+//
+// Axes: glTF is y up and looks down -z; our mesh is in camera A's OpenCV frame (x right,
+// y down, z forward). The GLB stores (x, -y, -z) so viewers show it upright; DecodeGlb
+// converts back. The asset's extras say so, and that the mesh is up to scale.
+//
+// Thread-safety: pure functions; reentrant.
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "recon/mesh.h"
+
+namespace mm {
+
+struct GlbInfo {
+  std::string generator = "monomesh";
+  /// Written to asset.extras.scale: a monocular reconstruction has no metric scale.
+  std::string scale_note =
+      "up to scale: a monocular pair fixes no metric scale; the baseline |t| = 1 is the unit";
+};
+
+/// The GLB bytes. `texture_jpeg` is the encoded keyframe A (may be empty: untextured).
+std::string EncodeGlb(const Mesh& mesh, const std::string& texture_jpeg, const GlbInfo& info = {});
+
+/// Reads a GLB written by EncodeGlb (or any GLB with one triangle primitive using POSITION,
+/// TEXCOORD_0 and indices) back into camera-A coordinates. `texture_bgr` receives the decoded
+/// base colour image (empty when there is none). Returns "" or what went wrong.
+std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr);
+
+}  // namespace mm

@@ -1,0 +1,198 @@
+#include "render/mesh_eval.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+namespace mm {
+namespace {
+
+double Quantile(std::vector<double>* v, double q) {
+  const size_t k = static_cast<size_t>(q * static_cast<double>(v->size() - 1));
+  std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(k), v->end());
+  return (*v)[k];
+}
+
+double FarPlaneFor(const Mesh& mesh, const Eigen::Isometry3d& cam_from_world) {
+  double far_plane = 1.0;
+  for (const Eigen::Vector3f& v : mesh.vertices) {
+    far_plane = std::max(far_plane, (cam_from_world * v.cast<double>()).z());
+  }
+  return 2.0 * far_plane;
+}
+
+}  // namespace
+
+double ScaleFromPoints(std::span<const Eigen::Vector3d> points_in_cam,
+                       std::span<const Eigen::Vector2d> pixels, const cv::Mat& gt_depth_m) {
+  CV_Assert(gt_depth_m.type() == CV_32FC1);
+  std::vector<double> ratios;
+  for (size_t i = 0; i < points_in_cam.size() && i < pixels.size(); ++i) {
+    const int u = static_cast<int>(std::lround(pixels[i].x()));
+    const int v = static_cast<int>(std::lround(pixels[i].y()));
+    if (u < 0 || v < 0 || u >= gt_depth_m.cols || v >= gt_depth_m.rows) continue;
+    const float gt = gt_depth_m.at<float>(v, u);
+    if (gt > 0 && points_in_cam[i].z() > 0) ratios.push_back(gt / points_in_cam[i].z());
+  }
+  if (ratios.empty()) return 0.0;
+  return Quantile(&ratios, 0.5);
+}
+
+MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const RenderCamera& camera,
+                                const cv::Mat& gt_depth_m, double scale) {
+  MeshDepthEval out;
+  if (gt_depth_m.type() != CV_32FC1 || gt_depth_m.cols != camera.width ||
+      gt_depth_m.rows != camera.height) {
+    out.failure_reason = "ground truth must be CV_32FC1 of the camera's image size";
+    return out;
+  }
+  if (!(scale > 0)) {
+    out.failure_reason = "scale must be > 0";
+    return out;
+  }
+  RenderCamera cam = camera;
+  cam.far_plane = FarPlaneFor(mesh, camera.cam_from_world);
+  cam.near_plane = cam.far_plane * 1e-4;
+  const RenderResult r = renderer.Render(mesh, cv::Mat(), cam);
+  if (!r.success) {
+    out.failure_reason = r.failure_reason;
+    return out;
+  }
+  std::vector<double> errors;
+  for (int y = 0; y < gt_depth_m.rows; ++y) {
+    for (int x = 0; x < gt_depth_m.cols; ++x) {
+      const float gt = gt_depth_m.at<float>(y, x);
+      if (!(gt > 0)) continue;
+      ++out.gt_pixels;
+      const float d = r.depth.at<float>(y, x);
+      if (!(d > 0)) continue;
+      ++out.covered_pixels;
+      errors.push_back(std::abs(scale * d - gt) / gt);
+    }
+  }
+  if (out.gt_pixels == 0) {
+    out.failure_reason = "no ground-truth pixels";
+    return out;
+  }
+  out.coverage = static_cast<double>(out.covered_pixels) / out.gt_pixels;
+  if (!errors.empty()) {
+    out.median_rel_err = Quantile(&errors, 0.5);
+    out.p90_rel_err = Quantile(&errors, 0.9);
+  }
+  out.success = true;
+  return out;
+}
+
+MeshDepthEval EvaluateMeshDepth(const Mesh& mesh, const RenderCamera& camera,
+                                const cv::Mat& gt_depth_m, double scale) {
+  Renderer renderer;
+  return EvaluateMeshDepth(renderer, mesh, camera, gt_depth_m, scale);
+}
+
+MeshDepthEval EvaluatePairMesh(const PairReconstruction& pair, const Eigen::Matrix3d& K,
+                               const cv::Mat& gt_depth_m) {
+  MeshDepthEval out;
+  if (!pair.success) {
+    out.failure_reason = "the pair failed: " + pair.failure_reason;
+    return out;
+  }
+  if (gt_depth_m.type() != CV_32FC1) {
+    out.failure_reason = "ground truth must be CV_32FC1 (metres)";
+    return out;
+  }
+  const double scale = ScaleFromPoints(pair.geometry.points_in_cam_a, pair.point_pixels_a,
+                                       gt_depth_m);
+  if (!(scale > 0)) {
+    out.failure_reason = "no triangulated point has ground-truth depth";
+    return out;
+  }
+  RenderCamera camera;
+  camera.K = K;
+  camera.width = gt_depth_m.cols;
+  camera.height = gt_depth_m.rows;
+  return EvaluateMeshDepth(pair.mesh, camera, gt_depth_m, scale);
+}
+
+double MaskedNcc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
+  CV_Assert(a.size() == b.size() && a.size() == mask.size() && mask.type() == CV_8UC1);
+  cv::Mat ga = a, gb = b;
+  if (a.channels() == 3) cv::cvtColor(a, ga, cv::COLOR_BGR2GRAY);
+  if (b.channels() == 3) cv::cvtColor(b, gb, cv::COLOR_BGR2GRAY);
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  long n = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      if (mask.at<uint8_t>(y, x) == 0) continue;
+      const double va = ga.at<uint8_t>(y, x), vb = gb.at<uint8_t>(y, x);
+      sa += va;
+      sb += vb;
+      saa += va * va;
+      sbb += vb * vb;
+      sab += va * vb;
+      ++n;
+    }
+  }
+  if (n < 2) return 0.0;
+  const double cov = sab - sa * sb / static_cast<double>(n);
+  const double var_a = saa - sa * sa / static_cast<double>(n);
+  const double var_b = sbb - sb * sb / static_cast<double>(n);
+  if (!(var_a > 0 && var_b > 0)) return 0.0;
+  return cov / std::sqrt(var_a * var_b);
+}
+
+RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height) {
+  RenderCamera cam;
+  cam.K = K;
+  cam.width = width;
+  cam.height = height;
+  // Median point of the mesh (per axis): robust to a few far vertices.
+  Eigen::Vector3d centre(0, 0, 1);
+  if (!mesh.vertices.empty()) {
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> c;
+      for (const Eigen::Vector3f& v : mesh.vertices) c.push_back(v[k]);
+      centre[k] = Quantile(&c, 0.5);
+    }
+  }
+  // Camera A's centre swung 40 degrees up about the centre (A's x axis; A's "up" is -y), and
+  // 30 % further away so the whole mesh stays in view.
+  const Eigen::Vector3d from_centre = -centre * 1.3;
+  const Eigen::Vector3d eye = centre + Eigen::AngleAxisd(40.0 * M_PI / 180.0,
+                                                         Eigen::Vector3d::UnitX()) * from_centre;
+  const Eigen::Vector3d z = (centre - eye).normalized();
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();  // y = down.
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d world_from_cam;
+  world_from_cam << x, y, z;
+  cam.cam_from_world.linear() = world_from_cam.transpose();
+  cam.cam_from_world.translation() = -world_from_cam.transpose() * eye;
+  cam.far_plane = 10.0 * (eye - centre).norm() + 1.0;
+  cam.near_plane = cam.far_plane * 1e-4;
+  return cam;
+}
+
+cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& texture_bgr,
+                      const Eigen::Matrix3d& K, int width, int height, std::string* error) {
+  RenderCamera a;
+  a.K = K;
+  a.width = width;
+  a.height = height;
+  a.far_plane = FarPlaneFor(mesh, a.cam_from_world);
+  a.near_plane = a.far_plane * 1e-4;
+  const RenderResult from_a = renderer.Render(mesh, texture_bgr, a);
+  const RenderResult oblique =
+      renderer.Render(mesh, texture_bgr, ObliqueCamera(mesh, K, width, height));
+  if (!from_a.success || !oblique.success) {
+    if (error != nullptr) {
+      *error = from_a.success ? oblique.failure_reason : from_a.failure_reason;
+    }
+    return {};
+  }
+  cv::Mat out;
+  cv::hconcat(from_a.rgb, oblique.rgb, out);
+  return out;
+}
+
+}  // namespace mm

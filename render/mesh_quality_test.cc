@@ -1,0 +1,201 @@
+// The mesh against real pixels and ground truth, on the bundled TUM fr3 keyframes (pairs
+// (0,2) and (0,3); keyframe 0 has TUM's depth map): the textured mesh rendered from camera A
+// must look like keyframe A, from camera B like keyframe B, and its depth must match TUM's
+// depth after the scale given by the triangulated points (not fitted to the mesh).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/calib_io.h"
+#include "dataset/tum.h"
+#include "recon/mesh.h"
+#include "recon/pipeline.h"
+#include "render/mesh_eval.h"
+#include "render/renderer.h"
+
+namespace mm {
+namespace {
+
+const std::filesystem::path kData = std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office";
+
+struct PairFigures {
+  double ncc_a = 0, ncc_b = 0, coverage_b = 0;
+  MeshDepthEval depth;
+};
+
+class MeshQuality : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    renderer_ = new Renderer();
+    camera_ = LoadCalibration(kData / "calib.toml");
+    frames_ = ReadTumList(kData / "rgb.txt");
+    const cv::Mat raw = cv::imread((kData / "depth/1341847980.723020.png").string(),
+                                   cv::IMREAD_UNCHANGED);
+    raw.convertTo(gt_depth_, CV_32FC1, 1.0 / 5000.0);  // TUM: depth[m] = value / 5000.
+  }
+  static void TearDownTestSuite() {
+    delete renderer_;
+    renderer_ = nullptr;
+  }
+
+  static cv::Mat Image(int i) { return cv::imread(frames_[static_cast<size_t>(i)].path.string()); }
+
+  // Renders `mesh` from A and from B (the estimated pose) and evaluates A's depth.
+  static PairFigures Evaluate(const Mesh& mesh, const PairReconstruction& r, const cv::Mat& a,
+                              const cv::Mat& b) {
+    PairFigures f;
+    RenderCamera cam;
+    cam.K = camera_.K();
+    cam.width = a.cols;
+    cam.height = a.rows;
+    cam.far_plane = 1000;
+    const RenderResult from_a = renderer_->Render(mesh, a, cam);
+    EXPECT_TRUE(from_a.success) << from_a.failure_reason;
+    if (from_a.success) f.ncc_a = MaskedNcc(from_a.rgb, a, from_a.mask);
+    cam.cam_from_world.linear() = r.geometry.rotation;
+    cam.cam_from_world.translation() = r.geometry.translation;
+    const RenderResult from_b = renderer_->Render(mesh, a, cam);
+    EXPECT_TRUE(from_b.success) << from_b.failure_reason;
+    if (from_b.success) {
+      f.ncc_b = MaskedNcc(from_b.rgb, b, from_b.mask);
+      f.coverage_b = static_cast<double>(from_b.covered_pixels) / (a.cols * a.rows);
+    }
+    RenderCamera cam_a;
+    cam_a.K = camera_.K();
+    cam_a.width = a.cols;
+    cam_a.height = a.rows;
+    const double scale =
+        ScaleFromPoints(r.geometry.points_in_cam_a, r.point_pixels_a, gt_depth_);
+    f.depth = EvaluateMeshDepth(*renderer_, mesh, cam_a, gt_depth_, scale);
+    return f;
+  }
+
+  static Renderer* renderer_;
+  static BouguetCamera camera_;
+  static std::vector<TumFrame> frames_;
+  static cv::Mat gt_depth_;
+};
+Renderer* MeshQuality::renderer_ = nullptr;
+BouguetCamera MeshQuality::camera_;
+std::vector<TumFrame> MeshQuality::frames_;
+cv::Mat MeshQuality::gt_depth_;
+
+TEST_F(MeshQuality, TumPairsMeetTheIssueThresholds) {
+  ASSERT_TRUE(renderer_->ok()) << renderer_->error();
+  ASSERT_FALSE(gt_depth_.empty());
+  for (int ib : {2, 3}) {
+    SCOPED_TRACE("pair (0," + std::to_string(ib) + ")");
+    const cv::Mat a = Image(0), b = Image(ib);
+    const PairReconstruction r = ReconstructPair(a, b, camera_, PairOptions{});
+    ASSERT_TRUE(r.success) << r.failure_reason;
+    const PairFigures f = Evaluate(r.mesh, r, a, b);
+    ASSERT_TRUE(f.depth.success) << f.depth.failure_reason;
+    // The floor under the mesh's error: the triangulated points' own error, same scale.
+    const double scale = ScaleFromPoints(r.geometry.points_in_cam_a, r.point_pixels_a, gt_depth_);
+    std::vector<double> point_err;
+    for (size_t i = 0; i < r.point_pixels_a.size(); ++i) {
+      const cv::Point px(static_cast<int>(std::lround(r.point_pixels_a[i].x())),
+                         static_cast<int>(std::lround(r.point_pixels_a[i].y())));
+      const float gt = gt_depth_.at<float>(px);
+      if (gt > 0) point_err.push_back(std::abs(scale * r.geometry.points_in_cam_a[i].z() - gt) / gt);
+    }
+    std::sort(point_err.begin(), point_err.end());
+    if (!point_err.empty()) {
+      std::printf("pair (0,%d): scale %.4f m/unit; points vs GT: median %.4f over %zu points\n", ib,
+                  scale, point_err[point_err.size() / 2], point_err.size());
+    }
+    std::printf(
+        "pair (0,%d): %d points, %d vertices, %d triangles (dropped: %d depth, %d grazing); "
+        "NCC A %.4f, NCC B %.4f (B coverage %.3f); depth coverage %.3f, median %.4f, p90 "
+        "%.4f\n",
+        ib, r.mesh_summary.input_points, r.mesh_summary.vertices, r.mesh_summary.triangles,
+        r.mesh_summary.dropped_depth_discontinuity, r.mesh_summary.dropped_grazing_angle,
+        f.ncc_a, f.ncc_b, f.coverage_b, f.depth.coverage, f.depth.median_rel_err,
+        f.depth.p90_rel_err);
+    // Issue 5's thresholds. Measured with the defaults: (0,2) NCC A 0.992, B 0.979, depth
+    // coverage 0.596, median 2.37 %, p90 12.8 %; (0,3) 0.988, 0.931, 0.513, 3.50 %, 21.2 %.
+    EXPECT_GE(f.ncc_a, 0.95);
+    EXPECT_GE(f.ncc_b, 0.7);
+    EXPECT_LE(f.depth.median_rel_err, 0.05);
+    EXPECT_GE(f.depth.coverage, 0.40);
+    // The one-call form for `monomesh eval` gives the same figures.
+    const MeshDepthEval e = EvaluatePairMesh(r, camera_.K(), gt_depth_);
+    ASSERT_TRUE(e.success) << e.failure_reason;
+    EXPECT_NEAR(e.median_rel_err, f.depth.median_rel_err, 1e-9);
+    EXPECT_NEAR(e.coverage, f.depth.coverage, 1e-9);
+  }
+}
+
+// Not a threshold test: prints the figures per meshing option (the measurement behind the
+// defaults in MeshOptions), and checks that each variant still builds a usable mesh.
+TEST_F(MeshQuality, MeshingOptionSweep) {
+  ASSERT_TRUE(renderer_->ok()) << renderer_->error();
+  struct Variant {
+    const char* name;
+    MeshOptions options;
+  };
+  std::vector<Variant> variants;
+  auto add = [&variants](const char* name, auto&& edit) {
+    MeshOptions o;
+    edit(o);
+    variants.push_back({name, o});
+  };
+  add("defaults", [](MeshOptions&) {});
+  add("no voxel grid, no filters", [](MeshOptions& o) {
+    o.voxel_size = -1;
+    o.max_depth_ratio = 0;
+    o.max_grazing_angle_deg = 0;
+  });
+  add("no voxel grid", [](MeshOptions& o) { o.voxel_size = -1; });
+  add("thesis: centre, >=3 pts, no filters", [](MeshOptions& o) {
+    o.voxel_vertex = VoxelVertex::kCellCentre;
+    o.min_points_per_cell = 3;
+    o.max_depth_ratio = 0;
+    o.max_grazing_angle_deg = 0;
+  });
+  add("centre, >=3", [](MeshOptions& o) {
+    o.voxel_vertex = VoxelVertex::kCellCentre;
+    o.min_points_per_cell = 3;
+  });
+  add("centroid, >=3", [](MeshOptions& o) { o.min_points_per_cell = 3; });
+  add("centroid, >=2", [](MeshOptions& o) { o.min_points_per_cell = 2; });
+  add("centre, >=1", [](MeshOptions& o) { o.voxel_vertex = VoxelVertex::kCellCentre; });
+  add("fraction 1/24", [](MeshOptions& o) { o.voxel_auto_fraction = 1.0 / 24; });
+  add("fraction 1/96", [](MeshOptions& o) { o.voxel_auto_fraction = 1.0 / 96; });
+  add("fraction 1/200", [](MeshOptions& o) { o.voxel_auto_fraction = 1.0 / 200; });
+  add("depth ratio off", [](MeshOptions& o) { o.max_depth_ratio = 0; });
+  add("depth ratio 1.15", [](MeshOptions& o) { o.max_depth_ratio = 1.15; });
+  add("depth ratio 1.2", [](MeshOptions& o) { o.max_depth_ratio = 1.2; });
+  add("depth ratio 1.25", [](MeshOptions& o) { o.max_depth_ratio = 1.25; });
+  add("depth ratio 1.6", [](MeshOptions& o) { o.max_depth_ratio = 1.6; });
+  add("grazing off", [](MeshOptions& o) { o.max_grazing_angle_deg = 0; });
+  add("grazing 75", [](MeshOptions& o) { o.max_grazing_angle_deg = 75; });
+  for (int ib : {2, 3}) {
+    const cv::Mat a = Image(0), b = Image(ib);
+    const PairReconstruction r = ReconstructPair(a, b, camera_, PairOptions{});
+    ASSERT_TRUE(r.success) << r.failure_reason;
+    for (const Variant& v : variants) {
+      MeshSummary s;
+      const Mesh mesh = BuildDelaunayMesh(r.geometry.points_in_cam_a, camera_.K(), a.cols,
+                                          a.rows, v.options, &s);
+      const PairFigures f = Evaluate(mesh, r, a, b);
+      std::printf(
+          "sweep (0,%d) %-36s cell %.4f verts %5d tris %5d drop d%4d g%4d | NCC A %.4f B "
+          "%.4f | cov %.3f med %.4f p90 %.4f\n",
+          ib, v.name, s.voxel_size, s.vertices, s.triangles, s.dropped_depth_discontinuity,
+          s.dropped_grazing_angle, f.ncc_a, f.ncc_b, f.depth.coverage, f.depth.median_rel_err,
+          f.depth.p90_rel_err);
+      // With a few hundred points, cells of >= 2-3 points are rare (the thesis' rule leaves
+      // 0-3 vertices here, measured); every variant keeping single-point cells must mesh.
+      if (v.options.min_points_per_cell == 1) {
+        EXPECT_GT(s.triangles, 100) << v.name;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,71 @@
+#pragma once
+// Offscreen rendering of a textured mesh with EGL + OpenGL ES 3.0, headless: Mesa's
+// surfaceless platform (EGL_PLATFORM_SURFACELESS_MESA, EGL_KHR_surfaceless_context), a
+// framebuffer object (RGBA8 colour, RGBA8 packed linear depth, DEPTH24 z-buffer), shaders in
+// "#version 300 es" so they also run on a Raspberry Pi's GPU (GLES 3.1). Runs on llvmpipe.
+//
+// Camera: OpenCV convention (x right, y down, z forward; pixel centres at integer
+// coordinates), K with skew, pose cam_from_world, image size. The GL projection maps pixel
+// (u, v) to the centre of framebuffer pixel (u, v) with row 0 at the top, and z in
+// [near, far] to the depth range; depth is written out linear, in scene units.
+//
+// Thread-safety: a Renderer owns an EGL context current on the thread that created it; use
+// it from that thread only.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "recon/mesh.h"
+
+namespace mm {
+
+struct RenderCamera {
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  Eigen::Isometry3d cam_from_world = Eigen::Isometry3d::Identity();
+  int width = 0;
+  int height = 0;
+  double near_plane = 0.01;  ///< Scene units.
+  double far_plane = 1000.0;
+  [[nodiscard]] std::string Check() const;
+};
+
+struct RenderResult {
+  bool success = false;
+  std::string failure_reason;
+  cv::Mat rgb;    ///< CV_8UC3 (BGR, OpenCV order), background black.
+  cv::Mat depth;  ///< CV_32FC1 z in the camera frame (scene units); 0 where nothing is drawn.
+  cv::Mat mask;   ///< CV_8UC1, 255 where the mesh covers the pixel.
+  int covered_pixels = 0;
+};
+
+class Renderer {
+ public:
+  /// Creates the EGL display and context. On failure, ok() is false and error() says why.
+  Renderer();
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  [[nodiscard]] bool ok() const;
+  [[nodiscard]] const std::string& error() const;
+  /// GL_RENDERER, for logs (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
+  [[nodiscard]] std::string gl_renderer() const;
+
+  /// Draws `mesh` (vertices in world coordinates, UVs into `texture_bgr`, v up) from `camera`.
+  /// An empty texture draws the vertex colours (or grey).
+  RenderResult Render(const Mesh& mesh, const cv::Mat& texture_bgr, const RenderCamera& camera);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The column-major 4x4 GL projection for an OpenCV camera (see the file comment): clip =
+/// P * [x_cam; 1]. Exposed for tests.
+Eigen::Matrix4f GlProjectionFromK(const Eigen::Matrix3d& K, int width, int height,
+                                  double near_plane, double far_plane);
+
+}  // namespace mm
