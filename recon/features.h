@@ -18,7 +18,7 @@ struct SiftOptions {
   /// Lowe's first octave: -1 doubles the image (OpenCV's fixed choice), 0 starts at full
   /// resolution, 1 at half. OpenCV 4.6 always doubles, so for first_octave = k >= 0 the image
   /// is downscaled by 2^(k+1) before and keypoints are scaled back after.
-  int first_octave = 0;
+  int first_octave = -1;
   [[nodiscard]] std::string Check() const;
 };
 

@@ -231,9 +231,9 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
     const double err_a = ((K * p).hnormalized() - pixels_a[u]).norm();
     const double err_b = ((K * p_b).hnormalized() - pixels_b[u]).norm();
     if (std::max(err_a, err_b) > options.max_reprojection_error_px) continue;
-    const double angle = TriangulationAngleDeg(p, pose);
-    angles.push_back(angle);
-    if (angle < options.min_triangulation_angle_deg) continue;
+    // Low-angle points stay in the BA (they pin down the rotation); they are dropped from
+    // the output after it.
+    angles.push_back(TriangulationAngleDeg(p, pose));
     problem.points.push_back(p);
     problem.observations_a.push_back(pixels_a[u]);
     problem.observations_b.push_back(pixels_b[u]);
@@ -253,14 +253,36 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
     return Fail(result, "too few triangulated points (" + std::to_string(kept.size()) + ")");
   }
 
-  // 5. Two-view BA, then reject points by reprojection error and angle under the new pose.
+  // 5. Two-view BA; points above the reprojection limit after it are removed and BA runs
+  // again on the rest (once).
   start = Clock::now();
   if (options.bundle_adjustment) {
-    problem.rotation = result.rotation;
-    problem.translation = result.translation;
-    result.bundle = AdjustTwoViewBundle(options.bundle, &problem);
-    result.rotation = problem.rotation;
-    result.translation = problem.translation;
+    for (int round = 0; round < 2; ++round) {
+      problem.rotation = result.rotation;
+      problem.translation = result.translation;
+      result.bundle = AdjustTwoViewBundle(options.bundle, &problem);
+      result.rotation = problem.rotation;
+      result.translation = problem.translation;
+      if (round == 1) break;
+      TwoViewBundleProblem clean;
+      clean.k = K;
+      std::vector<int> clean_kept;
+      for (size_t j = 0; j < kept.size(); ++j) {
+        const Eigen::Vector3d& p = problem.points[j];
+        const Eigen::Vector3d p_b = result.rotation * p + result.translation;
+        if (!(p.z() > 0) || !(p_b.z() > 0)) continue;
+        const double err = std::max(((K * p).hnormalized() - problem.observations_a[j]).norm(),
+                                    ((K * p_b).hnormalized() - problem.observations_b[j]).norm());
+        if (err > options.max_reprojection_error_after_ba_px) continue;
+        clean.points.push_back(p);
+        clean.observations_a.push_back(problem.observations_a[j]);
+        clean.observations_b.push_back(problem.observations_b[j]);
+        clean_kept.push_back(kept[j]);
+      }
+      if (clean_kept.size() == kept.size()) break;
+      problem = std::move(clean);
+      kept = std::move(clean_kept);
+    }
   }
   pose = RelativePose{result.rotation, result.translation};
   double sq_sum = 0;

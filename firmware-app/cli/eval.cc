@@ -20,6 +20,8 @@ struct EvalArgs {
   int max_features = EvalOptions{}.pair.sift.max_features;
   double ratio = EvalOptions{}.pair.match.ratio;
   double contrast = EvalOptions{}.pair.sift.contrast_threshold;
+  double ransac_px = EvalOptions{}.pair.two_view.ransac_threshold_px;
+  double huber_px = EvalOptions{}.pair.two_view.bundle.huber_px;
   bool quiet = false;
 };
 
@@ -33,6 +35,8 @@ int RunEval(const EvalArgs& args) {
   options.pair.sift.max_features = args.max_features;
   options.pair.match.ratio = args.ratio;
   options.pair.sift.contrast_threshold = args.contrast;
+  options.pair.two_view.ransac_threshold_px = args.ransac_px;
+  options.pair.two_view.bundle.huber_px = args.huber_px;
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
@@ -77,6 +81,8 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--max-features", args->max_features, "SIFT feature cap (0 = all)");
   cmd->add_option("--ratio", args->ratio, "Matching ratio test (0.8; 0.6 as in the thesis)");
   cmd->add_option("--contrast", args->contrast, "SIFT contrast threshold");
+  cmd->add_option("--ransac-px", args->ransac_px, "RANSAC inlier threshold (Sampson, px)");
+  cmd->add_option("--huber-px", args->huber_px, "Bundle adjustment Huber scale (px)");
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
