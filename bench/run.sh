@@ -52,8 +52,8 @@ if command -v colmap > /dev/null; then
   params="$(python3 - "$calib" <<'PY'
 import re, sys
 text = open(sys.argv[1]).read()
-fc = re.search(r"fc\s*=\s*\[([^\]]*)\]", text).group(1).split(",")
-cc = re.search(r"cc\s*=\s*\[([^\]]*)\]", text).group(1).split(",")
+fc = re.search(r"^fc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
+cc = re.search(r"^cc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
 print(",".join(v.strip() for v in fc + cc))
 PY
 )"
@@ -65,24 +65,35 @@ PY
     mkdir -p "$d/images" "$d/sparse"
     cp "$dataset/${frames[$i]}" "$d/images/a.png"
     cp "$dataset/${frames[$((i + 1))]}" "$d/images/b.png"
-    # bash's `time`: wall, user and sys seconds of the three COLMAP commands.
-    TIMEFORMAT='%R %U %S'
-    { time (
-      colmap feature_extractor --database_path "$d/db.db" --image_path "$d/images" \
-        --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 \
-        --ImageReader.camera_params "$params" \
-        --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads 1
-      colmap exhaustive_matcher --database_path "$d/db.db" \
-        --SiftMatching.use_gpu 0 --SiftMatching.num_threads 1
-      colmap mapper --database_path "$d/db.db" --image_path "$d/images" \
-        --output_path "$d/sparse" --Mapper.init_min_tri_angle 2 --Mapper.num_threads 1 \
-        --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 \
-        --Mapper.ba_refine_extra_params 0
-    ) > "$d/log.txt" 2>&1 || true; } 2> "$d/time.txt"
-    read -r wall user sys < "$d/time.txt"
+    # Wall and CPU (user + sys of the children, getrusage) of the three COLMAP commands.
+    python3 - "$d" "$params" > "$d/time.txt" <<'PY'
+import resource, subprocess, sys, time
+d, params = sys.argv[1], sys.argv[2]
+cmds = [
+    ["colmap", "feature_extractor", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--ImageReader.camera_model", "PINHOLE", "--ImageReader.single_camera", "1",
+     "--ImageReader.camera_params", params,
+     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"],
+    ["colmap", "exhaustive_matcher", "--database_path", f"{d}/db.db",
+     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"],
+    ["colmap", "mapper", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--output_path", f"{d}/sparse", "--Mapper.init_min_tri_angle", "2",
+     "--Mapper.num_threads", "1", "--Mapper.ba_refine_focal_length", "0",
+     "--Mapper.ba_refine_principal_point", "0", "--Mapper.ba_refine_extra_params", "0"],
+]
+start = time.monotonic()
+with open(f"{d}/log.txt", "w") as log:
+    for c in cmds:
+        if subprocess.run(c, stdout=log, stderr=subprocess.STDOUT).returncode != 0:
+            break
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}")
+PY
+    read -r wall cpu < "$d/time.txt"
     registered=0
     [[ -f "$d/sparse/0/images.bin" ]] && registered=1
-    printf '%d\t%s\t%s\t%d\n' "$i" "$wall" "$(echo "$user + $sys" | bc)" "$registered" \
+    printf '%d\t%s\t%s\t%d\n' "$i" "$wall" "$cpu" "$registered" \
       >> "$work/colmap.tsv"
   done
   colmap_ok=1
