@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   const std::vector<mm::cli::Runner> runners{
       mm::cli::AddReconCommand(app),
+      mm::cli::AddEvalCommand(app),
       mm::cli::AddCtlCommand(app),
       mm::cli::AddFeedCommand(app),
       mm::cli::AddGpioTestCommand(app),

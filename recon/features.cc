@@ -1,6 +1,8 @@
 #include "recon/features.h"
 
+#include <cmath>
 #include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace mm {
 
@@ -8,11 +10,7 @@ std::string SiftOptions::Check() const {
   if (max_features < 0) return "max_features: must be >= 0";
   if (!(contrast_threshold > 0)) return "contrast_threshold: must be > 0";
   if (octave_layers < 1) return "octave_layers: must be >= 1";
-  return {};
-}
-
-std::string MatchOptions::Check() const {
-  if (!(ratio > 0 && ratio <= 1)) return "ratio: must be in (0, 1]";
+  if (first_octave < -1 || first_octave > 2) return "first_octave: must be in [-1, 2]";
   return {};
 }
 
@@ -21,35 +19,23 @@ Features ExtractSift(const cv::Mat& gray, const SiftOptions& options) {
   auto sift = cv::SIFT::create(options.max_features, options.octave_layers,
                                options.contrast_threshold);
   Features out;
-  sift->detectAndCompute(gray, cv::noArray(), out.keypoints, out.descriptors);
+  if (options.first_octave < 0) {
+    sift->detectAndCompute(gray, cv::noArray(), out.keypoints, out.descriptors);
+    return out;
+  }
+  // OpenCV doubles its input (octave -1); feed it a 2^(k+1) smaller image so its first octave
+  // is Lowe's octave k of the original, then map keypoints back to the original pixels.
+  const double scale = std::ldexp(1.0, options.first_octave + 1);
+  cv::Mat small;
+  cv::resize(gray, small, cv::Size(), 1.0 / scale, 1.0 / scale, cv::INTER_AREA);
+  sift->detectAndCompute(small, cv::noArray(), out.keypoints, out.descriptors);
+  const auto s = static_cast<float>(scale);
+  for (cv::KeyPoint& k : out.keypoints) {
+    // Pixel centres: x_full = (x_small + 0.5) * s - 0.5.
+    k.pt = cv::Point2f((k.pt.x + 0.5f) * s - 0.5f, (k.pt.y + 0.5f) * s - 0.5f);
+    k.size *= s;
+  }
   return out;
-}
-
-std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
-                                    const MatchOptions& options) {
-  std::vector<Match> matches;
-  if (descriptors_a.rows < 2 || descriptors_b.rows < 2) return matches;
-  cv::BFMatcher matcher(cv::NORM_L2);
-  std::vector<std::vector<cv::DMatch>> ab;
-  matcher.knnMatch(descriptors_a, descriptors_b, ab, 2);
-  std::vector<int> best_ba;
-  if (options.mutual) {
-    std::vector<std::vector<cv::DMatch>> ba;
-    matcher.knnMatch(descriptors_b, descriptors_a, ba, 1);
-    best_ba.assign(static_cast<size_t>(descriptors_b.rows), -1);
-    for (const auto& m : ba) {
-      if (!m.empty()) best_ba[static_cast<size_t>(m[0].queryIdx)] = m[0].trainIdx;
-    }
-  }
-  for (const auto& knn : ab) {
-    if (knn.size() < 2) continue;
-    if (knn[0].distance >= options.ratio * knn[1].distance) continue;
-    if (options.mutual && best_ba[static_cast<size_t>(knn[0].trainIdx)] != knn[0].queryIdx) {
-      continue;
-    }
-    matches.push_back({knn[0].queryIdx, knn[0].trainIdx, knn[0].distance});
-  }
-  return matches;
 }
 
 }  // namespace mm

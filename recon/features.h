@@ -1,8 +1,10 @@
 #pragma once
-// SIFT features (Lowe, IJCV 2004) through OpenCV, and ratio-test matching.
+// SIFT features (Lowe, IJCV 2004) through OpenCV, and brute-force L2 matching with Lowe's ratio
+// test and a mutual check, vectorized with Google Highway (recon/matcher.cc).
 //
 // Thread-safety: pure functions; reentrant.
 
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -13,6 +15,10 @@ struct SiftOptions {
   int max_features = 4000;          ///< Keep the strongest N (0 = all).
   double contrast_threshold = 0.04; ///< Lowe's D(x) threshold, as OpenCV's.
   int octave_layers = 3;            ///< Scales per octave.
+  /// Lowe's first octave: -1 doubles the image (OpenCV's fixed choice), 0 starts at full
+  /// resolution, 1 at half. OpenCV 4.6 always doubles, so for first_octave = k >= 0 the image
+  /// is downscaled by 2^(k+1) before and keypoints are scaled back after.
+  int first_octave = -1;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -36,8 +42,18 @@ struct Match {
   float distance = 0.0f;
 };
 
-/// Brute-force L2 matching with the ratio test and optional mutual check.
+/// Brute-force L2 matching with the ratio test (d1 < ratio * d2) and optional mutual check
+/// (i's best in B has i as its best in A), Highway SIMD with run-time dispatch. Descriptors
+/// are rounded to integers in [0, 255] (SIFT's already are), which makes the result exactly
+/// that of MatchDescriptorsScalar. Ties: the lowest index wins. `target_used` (optional)
+/// receives the Highway target that ran (e.g. HWY_AVX2).
 std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
-                                    const MatchOptions& options);
+                                    const MatchOptions& options,
+                                    int64_t* target_used = nullptr);
+
+/// The scalar reference of MatchDescriptors (same rounding, order and tie rule).
+std::vector<Match> MatchDescriptorsScalar(const cv::Mat& descriptors_a,
+                                          const cv::Mat& descriptors_b,
+                                          const MatchOptions& options);
 
 }  // namespace mm

@@ -28,17 +28,35 @@ std::string PairOptions::Check() const {
   return {};
 }
 
+Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options) {
+  if (image.empty()) return {};
+  return ExtractSift(ToGray(image), options.sift);
+}
+
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options) {
+  if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
+    PairReconstruction out;
+    out.failure_reason = "keyframes are empty or of different sizes";
+    return out;
+  }
+  const auto start = Clock::now();
+  const Features features_a = ExtractKeyframeFeatures(image_a, options);
+  const double features_a_s = SecondsSince(start);
+  PairReconstruction out = ReconstructPair(features_a, image_a, image_b, camera, options);
+  out.times.features_a_s = features_a_s;
+  return out;
+}
+
+PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
+                                   const cv::Mat& image_b, const BouguetCamera& camera,
+                                   const PairOptions& options) {
   PairReconstruction out;
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
     out.failure_reason = "keyframes are empty or of different sizes";
     return out;
   }
   auto start = Clock::now();
-  const Features features_a = ExtractSift(ToGray(image_a), options.sift);
-  out.times.features_a_s = SecondsSince(start);
-  start = Clock::now();
   const Features features_b = ExtractSift(ToGray(image_b), options.sift);
   out.times.features_b_s = SecondsSince(start);
   out.features_a = static_cast<int>(features_a.keypoints.size());

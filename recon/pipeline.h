@@ -53,4 +53,14 @@ struct PairReconstruction {
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options);
 
+/// SIFT of one keyframe (BGR8 or GRAY8) with `options.sift`: computed for keyframe A once,
+/// while the appliance waits for B.
+Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options);
+
+/// As above, with keyframe A's features precomputed by ExtractKeyframeFeatures (the time
+/// after B arrives). `times.features_a_s` stays 0.
+PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
+                                   const cv::Mat& image_b, const BouguetCamera& camera,
+                                   const PairOptions& options);
+
 }  // namespace mm

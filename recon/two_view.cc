@@ -2,21 +2,17 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
-#include <Eigen/SVD>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
-#include <numbers>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
 
 namespace mm {
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
@@ -129,26 +125,16 @@ std::string TwoViewOptions::Check() const {
   if (!(ransac_threshold_px > 0)) return "ransac_threshold_px: must be > 0";
   if (!(ransac_confidence > 0 && ransac_confidence < 1)) return "ransac_confidence: in (0, 1)";
   if (max_ransac_iterations < 1) return "max_ransac_iterations: must be >= 1";
-  if (min_inliers < 5) return "min_inliers: must be >= 5";
+  if (min_inliers < 8) return "min_inliers: must be >= 8";
   if (!(max_reprojection_error_px > 0)) return "max_reprojection_error_px: must be > 0";
+  if (!(max_reprojection_error_after_ba_px > 0)) {
+    return "max_reprojection_error_after_ba_px: must be > 0";
+  }
+  if (!(min_triangulation_angle_deg >= 0)) return "min_triangulation_angle_deg: must be >= 0";
+  for (const std::string& p : {bundle.Check(), cheirality.Check(), classify.Check()}) {
+    if (!p.empty()) return p;
+  }
   return {};
-}
-
-Eigen::Vector3d TriangulateDlt(const Eigen::Vector2d& x_a, const Eigen::Vector2d& x_b,
-                               const Eigen::Matrix3d& rotation,
-                               const Eigen::Vector3d& translation) {
-  Eigen::Matrix<double, 3, 4> p_a = Eigen::Matrix<double, 3, 4>::Zero();
-  p_a.leftCols<3>().setIdentity();
-  Eigen::Matrix<double, 3, 4> p_b;
-  p_b << rotation, translation;
-  Eigen::Matrix4d a;
-  a.row(0) = x_a.x() * p_a.row(2) - p_a.row(0);
-  a.row(1) = x_a.y() * p_a.row(2) - p_a.row(1);
-  a.row(2) = x_b.x() * p_b.row(2) - p_b.row(0);
-  a.row(3) = x_b.y() * p_b.row(2) - p_b.row(1);
-  const Eigen::JacobiSVD<Eigen::Matrix4d> svd(a, Eigen::ComputeFullV);
-  const Eigen::Vector4d x = svd.matrixV().col(3);
-  return x.head<3>() / x.w();
 }
 
 TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
@@ -161,84 +147,170 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
     return Fail(result, "too few matches (" + std::to_string(pixels_a.size()) + ")");
   }
 
-  // Normalize with K^-1 (handles skew, which OpenCV's cameraMatrix path ignores).
+  // 1. F and H by RANSAC in pixels; classify the pair.
+  RansacOptions ransac;
+  ransac.threshold_px = options.ransac_threshold_px;
+  ransac.confidence = options.ransac_confidence;
+  ransac.max_iterations = options.max_ransac_iterations;
+  ransac.seed = options.seed;
+  auto start = Clock::now();
+  result.ransac_f = RansacFundamental(pixels_a, pixels_b, ransac);
+  result.times.ransac_f_s = SecondsSince(start);
+  if (!result.ransac_f.success) return Fail(result, "F: " + result.ransac_f.failure_reason);
+  start = Clock::now();
+  ransac.seed = options.seed + 1;
+  ransac.refine_iterations = 0;
+  ransac.threshold_px = options.classify.homography_threshold_px;
+  // H only serves the classification, which needs H to explain > 85 % of the points: such an
+  // H is found in ~15 samples (H&Z alg. 4.5), so 200 suffice.
+  ransac.max_iterations = std::min(ransac.max_iterations, 200);
+  result.ransac_h = RansacHomography(pixels_a, pixels_b, ransac);
+  result.times.ransac_h_s = SecondsSince(start);
+  result.classification =
+      ClassifyPair(pixels_a, pixels_b, result.ransac_f, result.ransac_h, K, options.classify);
+  if (result.classification.kind != PairKind::kGeneral) {
+    return Fail(result, result.classification.explanation);
+  }
+  if (static_cast<int>(result.ransac_f.inliers.size()) < options.min_inliers) {
+    return Fail(result, "too few F inliers (" + std::to_string(result.ransac_f.inliers.size()) +
+                            ")");
+  }
+
+  // 2. E on the manifold, the four poses, cheirality over all inliers.
+  start = Clock::now();
   const Eigen::Matrix3d k_inv = K.inverse();
-  std::vector<cv::Point2d> norm_a, norm_b;
   std::vector<Eigen::Vector2d> xa, xb;
+  xa.reserve(pixels_a.size());
+  xb.reserve(pixels_a.size());
   for (size_t i = 0; i < pixels_a.size(); ++i) {
     xa.push_back((k_inv * pixels_a[i].homogeneous()).hnormalized());
     xb.push_back((k_inv * pixels_b[i].homogeneous()).hnormalized());
-    norm_a.emplace_back(xa.back().x(), xa.back().y());
-    norm_b.emplace_back(xb.back().x(), xb.back().y());
   }
+  const Eigen::Matrix3d essential = EssentialFromFundamental(result.ransac_f.model, K);
+  result.cheirality =
+      SelectPoseByCheirality(essential, xa, xb, result.ransac_f.inliers, options.cheirality);
+  if (!result.cheirality.success) return Fail(result, result.cheirality.failure_reason);
+  result.rotation = result.cheirality.pose.rotation;
+  result.translation = result.cheirality.pose.translation;
+
+  // 3. LM on the Sampson error over the 5 dof of (R, t), then the inliers again.
   const double focal = 0.5 * (K(0, 0) + K(1, 1));
-  cv::theRNG().state = options.seed;
-  cv::Mat inlier_mask;
-  const cv::Mat essential = cv::findEssentialMat(
-      norm_a, norm_b, cv::Mat::eye(3, 3, CV_64F), cv::RANSAC, options.ransac_confidence,
-      options.ransac_threshold_px / focal, options.max_ransac_iterations, inlier_mask);
-  if (essential.rows != 3 || essential.cols != 3) {
-    return Fail(result, "no essential matrix found");
-  }
-  cv::Mat r_cv, t_cv;
-  cv::Mat pose_mask = inlier_mask.clone();
-  const int in_front = cv::recoverPose(essential, norm_a, norm_b, cv::Mat::eye(3, 3, CV_64F),
-                                       r_cv, t_cv, pose_mask);
-  cv::cv2eigen(r_cv, result.rotation);
-  cv::cv2eigen(t_cv, result.translation);
-  result.translation.normalize();
-  result.num_inliers = in_front;
-  if (in_front < options.min_inliers) {
-    return Fail(result, "too few inliers in front of both cameras (" + std::to_string(in_front) +
-                            ")");
-  }
-  // The RANSAC model comes from a minimal sample; refine it on all inliers, then take the
-  // inlier set again under the refined model.
-  std::vector<int> inliers;
-  for (size_t i = 0; i < xa.size(); ++i) {
-    if (pose_mask.at<uint8_t>(static_cast<int>(i)) != 0) inliers.push_back(static_cast<int>(i));
-  }
-  RefinePoseSampson(xa, xb, inliers, &result.rotation, &result.translation);
-  const Eigen::Matrix3d refined_e = Skew(result.translation) * result.rotation;
   const double threshold = options.ransac_threshold_px / focal;
-  for (size_t i = 0; i < xa.size(); ++i) {
-    const bool inlier = std::abs(SampsonError(refined_e, xa[i], xb[i])) < threshold;
-    pose_mask.at<uint8_t>(static_cast<int>(i)) = inlier ? 1 : 0;
+  std::vector<int> inliers = result.ransac_f.inliers;
+  for (int round = 0; round < 2; ++round) {
+    RefinePoseSampson(xa, xb, inliers, &result.rotation, &result.translation);
+    const Eigen::Matrix3d e = Skew(result.translation) * result.rotation;
+    inliers.clear();
+    for (size_t i = 0; i < xa.size(); ++i) {
+      if (std::abs(SampsonError(e, xa[i], xb[i])) < threshold) {
+        inliers.push_back(static_cast<int>(i));
+      }
+    }
+  }
+  result.inliers = inliers;
+  result.num_inliers = static_cast<int>(inliers.size());
+  result.times.pose_s = SecondsSince(start);
+  if (result.num_inliers < options.min_inliers) {
+    return Fail(result, "too few inliers after refinement (" +
+                            std::to_string(result.num_inliers) + ")");
   }
 
-  // Triangulate each inlier; keep points in front of both cameras, with small reprojection
-  // error and enough triangulation angle.
-  const Eigen::Vector3d center_b = -result.rotation.transpose() * result.translation;
+  // 4. Triangulation: linear, then Gauss-Newton; cheirality, reprojection and angle checks.
+  start = Clock::now();
+  RelativePose pose{result.rotation, result.translation};
+  TwoViewBundleProblem problem;
+  problem.k = K;
+  std::vector<int> kept;
   std::vector<double> angles;
-  double sq_error_sum = 0.0;
-  for (size_t i = 0; i < xa.size(); ++i) {
-    if (pose_mask.at<uint8_t>(static_cast<int>(i)) == 0) continue;
-    const Eigen::Vector3d p = TriangulateDlt(xa[i], xb[i], result.rotation, result.translation);
-    const Eigen::Vector3d p_b = result.rotation * p + result.translation;
-    if (!(p.z() > 0) || !(p_b.z() > 0)) continue;
-    const double err_a = ((K * p).hnormalized() - pixels_a[i]).norm();
-    const double err_b = ((K * p_b).hnormalized() - pixels_b[i]).norm();
-    const double err = std::max(err_a, err_b);
-    if (err > options.max_reprojection_error_px) continue;
-    const double cos_angle = p.normalized().dot((p - center_b).normalized());
-    const double angle = std::acos(std::clamp(cos_angle, -1.0, 1.0)) * 180.0 / std::numbers::pi;
-    angles.push_back(angle);
-    if (angle < options.min_triangulation_angle_deg) continue;
-    result.points_in_cam_a.push_back(p);
-    result.point_correspondence.push_back(static_cast<int>(i));
-    sq_error_sum += 0.5 * (err_a * err_a + err_b * err_b);
+  for (int i : inliers) {
+    const auto u = static_cast<size_t>(i);
+    Eigen::Vector3d p = TriangulateLinear(xa[u], xb[u], pose);
+    p = RefineTriangulation(p, xa[u], xb[u], pose);
+    const Eigen::Vector3d p_b = pose.rotation * p + pose.translation;
+    if (!(p.z() > 0) || !(p_b.z() > 0) || !p.allFinite()) continue;
+    const double err_a = ((K * p).hnormalized() - pixels_a[u]).norm();
+    const double err_b = ((K * p_b).hnormalized() - pixels_b[u]).norm();
+    if (std::max(err_a, err_b) > options.max_reprojection_error_px) continue;
+    // Low-angle points stay in the BA (they pin down the rotation); they are dropped from
+    // the output after it.
+    angles.push_back(TriangulationAngleDeg(p, pose));
+    problem.points.push_back(p);
+    problem.observations_a.push_back(pixels_a[u]);
+    problem.observations_b.push_back(pixels_b[u]);
+    kept.push_back(i);
   }
-  result.median_triangulation_angle_deg = Median(angles);
+  result.times.triangulation_s = SecondsSince(start);
+  // Parallax gate on all triangulated inliers, before any are dropped for their angle.
+  result.median_triangulation_angle_deg = MedianOf(angles);
+  if (result.median_triangulation_angle_deg < options.min_median_triangulation_angle_deg) {
+    result.classification.kind = PairKind::kNoParallax;
+    result.classification.explanation =
+        "too little parallax (median triangulation angle " +
+        std::to_string(result.median_triangulation_angle_deg) + " deg)";
+    return Fail(result, result.classification.explanation);
+  }
+  if (static_cast<int>(kept.size()) < options.min_inliers) {
+    return Fail(result, "too few triangulated points (" + std::to_string(kept.size()) + ")");
+  }
+
+  // 5. Two-view BA; points above the reprojection limit after it are removed and BA runs
+  // again on the rest (once).
+  start = Clock::now();
+  if (options.bundle_adjustment) {
+    for (int round = 0; round < 2; ++round) {
+      problem.rotation = result.rotation;
+      problem.translation = result.translation;
+      result.bundle = AdjustTwoViewBundle(options.bundle, &problem);
+      result.rotation = problem.rotation;
+      result.translation = problem.translation;
+      if (round == 1) break;
+      TwoViewBundleProblem clean;
+      clean.k = K;
+      std::vector<int> clean_kept;
+      for (size_t j = 0; j < kept.size(); ++j) {
+        const Eigen::Vector3d& p = problem.points[j];
+        const Eigen::Vector3d p_b = result.rotation * p + result.translation;
+        if (!(p.z() > 0) || !(p_b.z() > 0)) continue;
+        const double err = std::max(((K * p).hnormalized() - problem.observations_a[j]).norm(),
+                                    ((K * p_b).hnormalized() - problem.observations_b[j]).norm());
+        if (err > options.max_reprojection_error_after_ba_px) continue;
+        clean.points.push_back(p);
+        clean.observations_a.push_back(problem.observations_a[j]);
+        clean.observations_b.push_back(problem.observations_b[j]);
+        clean_kept.push_back(kept[j]);
+      }
+      if (clean_kept.size() == kept.size()) break;
+      problem = std::move(clean);
+      kept = std::move(clean_kept);
+    }
+  }
+  pose = RelativePose{result.rotation, result.translation};
+  double sq_sum = 0;
+  angles.clear();
+  const double max_err = options.bundle_adjustment ? options.max_reprojection_error_after_ba_px
+                                                   : options.max_reprojection_error_px;
+  for (size_t j = 0; j < kept.size(); ++j) {
+    const Eigen::Vector3d& p = problem.points[j];
+    const Eigen::Vector3d p_b = pose.rotation * p + pose.translation;
+    if (!(p.z() > 0) || !(p_b.z() > 0)) continue;
+    const double err_a = ((K * p).hnormalized() - problem.observations_a[j]).norm();
+    const double err_b = ((K * p_b).hnormalized() - problem.observations_b[j]).norm();
+    if (std::max(err_a, err_b) > max_err) continue;
+    const double angle = TriangulationAngleDeg(p, pose);
+    if (angle < options.min_triangulation_angle_deg) continue;
+    angles.push_back(angle);
+    result.points_in_cam_a.push_back(p);
+    result.point_correspondence.push_back(kept[j]);
+    sq_sum += 0.5 * (err_a * err_a + err_b * err_b);
+  }
+  result.times.bundle_s = SecondsSince(start);
+  if (!angles.empty()) result.median_triangulation_angle_deg = MedianOf(angles);
   if (!result.points_in_cam_a.empty()) {
     result.reprojection_rms_px =
-        std::sqrt(sq_error_sum / static_cast<double>(result.points_in_cam_a.size()));
-  }
-  if (result.median_triangulation_angle_deg < options.min_median_triangulation_angle_deg) {
-    return Fail(result, "too little parallax (median triangulation angle " +
-                            std::to_string(result.median_triangulation_angle_deg) + " deg)");
+        std::sqrt(sq_sum / static_cast<double>(result.points_in_cam_a.size()));
   }
   if (static_cast<int>(result.points_in_cam_a.size()) < options.min_inliers) {
-    return Fail(result, "too few triangulated points (" +
+    return Fail(result, "too few points after bundle adjustment (" +
                             std::to_string(result.points_in_cam_a.size()) + ")");
   }
   result.success = true;

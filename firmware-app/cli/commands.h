@@ -12,6 +12,8 @@ using Runner = std::function<int()>;
 
 /// Adds `recon`: one pair of images -> mesh files in a folder.
 Runner AddReconCommand(CLI::App& app);
+/// Adds `eval`: two-view accuracy and timing on a TUM-format folder (recon/evaluation.h).
+Runner AddEvalCommand(CLI::App& app);
 /// Adds `ctl`: trigger | status | ping a running monomeshd.
 Runner AddCtlCommand(CLI::App& app);
 /// Adds `feed`: plays a dataset into a v4l2loopback device.

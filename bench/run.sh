@@ -1,0 +1,142 @@
+#!/usr/bin/env bash
+# Speed (and accuracy) of the two-view reconstruction against COLMAP, in one run:
+#   1. `monomesh eval` on the TUM keyframe pairs (step 1): per-pair time from two images and
+#      after keyframe B (A's SIFT precomputed), wall and process CPU, one thread;
+#   2. every *_bench Google Benchmark binary in the build (e.g. recon_matcher_bench);
+#   3. COLMAP (when `colmap` is installed) on the same pairs: feature_extractor,
+#      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT.
+# Prints both and the ratio, and writes everything as JSON. Wall and CPU (user + sys) time are
+# both reported: on a shared, loaded machine the CPU time is the fairer comparison.
+#
+# Usage: bench/run.sh [--build DIR] [--dataset DIR] [--calib FILE] [--json OUT] [--pairs N]
+set -euo pipefail
+
+root="$(cd "$(dirname "$0")/.." && pwd)"
+build="$root/build/default"
+dataset="$root/../shared/data/tum_fr3_long_office_household"
+calib="$root/data/tum_office/calib.toml"
+out="$root/build/bench.json"
+max_pairs=16
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --build) build="$2"; shift 2 ;;
+    --dataset) dataset="$2"; shift 2 ;;
+    --calib) calib="$2"; shift 2 ;;
+    --json) out="$2"; shift 2 ;;
+    --pairs) max_pairs="$2"; shift 2 ;;
+    *) echo "unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+[[ -d "$dataset" ]] || { echo "bench: no dataset at $dataset" >&2; exit 77; }
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+echo "== monomesh eval (one thread)"
+"$build/firmware-app/monomesh" eval --dataset "$dataset" --calib "$calib" \
+  --list keyframes_1hz.txt --step 1 --threads 1 --json "$work/monomesh.json" --quiet
+
+echo "== Google Benchmarks"
+: > "$work/benchmarks.list"
+while IFS= read -r exe; do
+  name="$(basename "$exe")"
+  echo "-- $name"
+  "$exe" --benchmark_format=console --benchmark_out="$work/$name.json" \
+    --benchmark_out_format=json
+  echo "$work/$name.json" >> "$work/benchmarks.list"
+done < <(find "$build" -type f -name '*_bench' -perm -u+x | sort)
+
+colmap_ok=0
+if command -v colmap > /dev/null; then
+  echo "== COLMAP $(colmap -h 2>/dev/null | grep -m1 -o 'COLMAP [0-9.]*' || true) (one thread, CPU)"
+  export QT_QPA_PLATFORM=offscreen
+  params="$(python3 - "$calib" <<'PY'
+import re, sys
+text = open(sys.argv[1]).read()
+fc = re.search(r"^fc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
+cc = re.search(r"^cc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
+print(",".join(v.strip() for v in fc + cc))
+PY
+)"
+  mapfile -t frames < <(grep -v '^#' "$dataset/keyframes_1hz.txt" | awk '{print $2}')
+  : > "$work/colmap.tsv"
+  n=0
+  for ((i = 0; i + 1 < ${#frames[@]} && n < max_pairs; i++, n++)); do
+    d="$work/colmap_$i"
+    mkdir -p "$d/images" "$d/sparse"
+    cp "$dataset/${frames[$i]}" "$d/images/a.png"
+    cp "$dataset/${frames[$((i + 1))]}" "$d/images/b.png"
+    # Wall and CPU (user + sys of the children, getrusage) of the three COLMAP commands.
+    python3 - "$d" "$params" > "$d/time.txt" <<'PY'
+import resource, subprocess, sys, time
+d, params = sys.argv[1], sys.argv[2]
+cmds = [
+    ["colmap", "feature_extractor", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--ImageReader.camera_model", "PINHOLE", "--ImageReader.single_camera", "1",
+     "--ImageReader.camera_params", params,
+     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"],
+    ["colmap", "exhaustive_matcher", "--database_path", f"{d}/db.db",
+     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"],
+    ["colmap", "mapper", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--output_path", f"{d}/sparse", "--Mapper.init_min_tri_angle", "2",
+     "--Mapper.num_threads", "1", "--Mapper.ba_refine_focal_length", "0",
+     "--Mapper.ba_refine_principal_point", "0", "--Mapper.ba_refine_extra_params", "0"],
+]
+start = time.monotonic()
+with open(f"{d}/log.txt", "w") as log:
+    for c in cmds:
+        if subprocess.run(c, stdout=log, stderr=subprocess.STDOUT).returncode != 0:
+            break
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}")
+PY
+    read -r wall cpu < "$d/time.txt"
+    registered=0
+    [[ -f "$d/sparse/0/images.bin" ]] && registered=1
+    printf '%d\t%s\t%s\t%d\n' "$i" "$wall" "$cpu" "$registered" \
+      >> "$work/colmap.tsv"
+  done
+  colmap_ok=1
+else
+  echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): skipped"
+fi
+
+python3 - "$work" "$out" "$colmap_ok" <<'PY'
+import json, statistics, sys
+work, out, colmap_ok = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
+mm = json.load(open(f"{work}/monomesh.json"))
+s = mm["summary"]
+result = {"monomesh": {"summary": s,
+                       "pairs": [{"a": p["a"], "b": p["b"], "success": p["success"],
+                                  "time_s": p["time_s"]} for p in mm["pairs"]]},
+          "benchmarks": {}}
+for path in open(f"{work}/benchmarks.list").read().split():
+    data = json.load(open(path))
+    result["benchmarks"][path.rsplit("/", 1)[-1][:-5]] = [
+        {"name": b["name"], "real_time": b["real_time"], "cpu_time": b["cpu_time"],
+         "time_unit": b["time_unit"]} for b in data["benchmarks"]]
+print("\n== Summary (median per pair, one thread)")
+print(f"monomesh: two images {s['time_s']['median']:.3f} s wall / {s['time_s']['cpu_median']:.3f} s CPU; "
+      f"after B {s['time_s']['median_after_b']:.3f} s wall / {s['time_s']['cpu_median_after_b']:.3f} s CPU; "
+      f"{s['succeeded']}/{s['pairs']} pairs, rot {s['rot_err_deg']['median']:.3f} deg, "
+      f"trans {s['trans_err_deg']['median']:.3f} deg")
+if colmap_ok:
+    rows = [l.split("\t") for l in open(f"{work}/colmap.tsv").read().splitlines() if l]
+    wall = [float(r[1]) for r in rows]
+    cpu = [float(r[2]) for r in rows]
+    reg = sum(int(r[3]) for r in rows)
+    med, med_cpu = statistics.median(wall), statistics.median(cpu)
+    result["colmap"] = {"pairs": len(rows), "reconstructed": reg,
+                        "time_s": {"median": med, "cpu_median": med_cpu},
+                        "per_pair_wall_s": wall, "per_pair_cpu_s": cpu}
+    ratios = {"wall_two_images": med / s["time_s"]["median"],
+              "cpu_two_images": med_cpu / s["time_s"]["cpu_median"],
+              "cpu_after_b": med_cpu / s["time_s"]["cpu_median_after_b"]}
+    result["ratio_colmap_over_monomesh"] = ratios
+    print(f"COLMAP:   {med:.3f} s wall / {med_cpu:.3f} s CPU per pair "
+          f"({reg}/{len(rows)} pairs reconstructed)")
+    print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
+          f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
+json.dump(result, open(out, "w"), indent=2)
+print(f"written to {out}")
+PY

@@ -1,0 +1,347 @@
+#include "recon/evaluation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/undistort.h"
+#include "dataset/tum.h"
+
+namespace mm {
+namespace {
+
+double CpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+bool HasDistortion(const BouguetCamera& c) {
+  return std::any_of(c.kc.begin(), c.kc.end(), [](double k) { return k != 0.0; });
+}
+
+// Index of the list entry nearest in time to `t`, or -1 when none is within `max_dt`.
+int Nearest(const std::vector<TumFrame>& frames, double t, double max_dt) {
+  int best = -1;
+  double best_dt = max_dt;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const double dt = std::abs(frames[i].timestamp_s - t);
+    if (dt <= best_dt) {
+      best_dt = dt;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+// Relative depth error of the triangulated points against a TUM depth map of frame A, after
+// one median scale factor (the reconstruction is up to scale).
+void CompareDepth(const PairReconstruction& r, const cv::Mat& depth16, PairEval* out) {
+  std::vector<double> ratios, est, gt;
+  for (size_t i = 0; i < r.geometry.points_in_cam_a.size() && i < r.point_pixels_a.size(); ++i) {
+    const int u = static_cast<int>(std::lround(r.point_pixels_a[i].x()));
+    const int v = static_cast<int>(std::lround(r.point_pixels_a[i].y()));
+    if (u < 0 || v < 0 || u >= depth16.cols || v >= depth16.rows) continue;
+    const uint16_t raw = depth16.at<uint16_t>(v, u);
+    if (raw == 0) continue;
+    const double d = raw / 5000.0;
+    const double z = r.geometry.points_in_cam_a[i].z();
+    if (!(z > 0)) continue;
+    est.push_back(z);
+    gt.push_back(d);
+    ratios.push_back(d / z);
+  }
+  out->depth_points = static_cast<int>(est.size());
+  if (est.empty()) return;
+  out->has_depth = true;
+  out->depth_scale = Percentile(ratios, 50);
+  std::vector<double> rel;
+  int within = 0;
+  for (size_t i = 0; i < est.size(); ++i) {
+    const double e = std::abs(out->depth_scale * est[i] - gt[i]) / gt[i];
+    rel.push_back(e);
+    if (e < 0.10) ++within;
+  }
+  out->depth_rel_err_median = Percentile(rel, 50);
+  out->depth_within_10pct = static_cast<double>(within) / static_cast<double>(est.size());
+}
+
+EvalSummary Summarize(const std::vector<PairEval>& pairs) {
+  EvalSummary s;
+  s.pairs = static_cast<int>(pairs.size());
+  std::vector<double> rot, trans, time, after_b, cpu, cpu_after_b, depth, within;
+  for (const PairEval& p : pairs) {
+    time.push_back(p.time_two_images_s);
+    after_b.push_back(p.time_after_b_s);
+    cpu.push_back(p.cpu_two_images_s);
+    cpu_after_b.push_back(p.cpu_after_b_s);
+    if (!p.success) continue;
+    ++s.succeeded;
+    if (p.has_gt) {
+      rot.push_back(p.rot_err_deg);
+      trans.push_back(p.trans_err_deg);
+    }
+    if (p.has_depth) {
+      depth.push_back(p.depth_rel_err_median);
+      within.push_back(p.depth_within_10pct);
+    }
+  }
+  s.rot_err_median_deg = Percentile(rot, 50);
+  s.rot_err_p90_deg = Percentile(rot, 90);
+  s.trans_err_median_deg = Percentile(trans, 50);
+  s.trans_err_p90_deg = Percentile(trans, 90);
+  s.time_median_s = Percentile(time, 50);
+  s.time_after_b_median_s = Percentile(after_b, 50);
+  s.cpu_median_s = Percentile(cpu, 50);
+  s.cpu_after_b_median_s = Percentile(cpu_after_b, 50);
+  s.depth_pairs = static_cast<int>(depth.size());
+  s.depth_rel_err_median = Percentile(depth, 50);
+  double sum = 0;
+  for (double w : within) sum += w;
+  s.depth_within_10pct = within.empty() ? 0.0 : sum / static_cast<double>(within.size());
+  return s;
+}
+
+}  // namespace
+
+std::string EvalOptions::Check() const {
+  if (step < 1) return "step: must be >= 1";
+  if (threads < 0) return "threads: must be >= 0";
+  if (!(max_depth_dt_s >= 0)) return "max_depth_dt_s: must be >= 0";
+  return pair.Check();
+}
+
+double Percentile(std::vector<double> values, double percent) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double pos = std::clamp(percent, 0.0, 100.0) / 100.0 * static_cast<double>(values.size() - 1);
+  const auto lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, values.size() - 1);
+  return values[lo] + (pos - static_cast<double>(lo)) * (values[hi] - values[lo]);
+}
+
+EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetCamera& camera,
+                            const EvalOptions& options) {
+  EvalResult result;
+  if (const std::string problem = options.Check(); !problem.empty()) {
+    result.failure_reason = "options: " + problem;
+    return result;
+  }
+  std::vector<TumFrame> frames, depth_frames;
+  std::optional<Trajectory> trajectory;
+  try {
+    std::filesystem::path list = options.list.empty() ? dataset / "rgb.txt" : options.list;
+    if (list.is_relative() && !std::filesystem::exists(list)) list = dataset / list;
+    frames = ReadTumList(list);
+    if (std::filesystem::exists(dataset / "groundtruth.txt")) {
+      trajectory = Trajectory::Read(dataset / "groundtruth.txt");
+    }
+    if (std::filesystem::exists(dataset / "depth.txt")) {
+      depth_frames = ReadTumList(dataset / "depth.txt");
+    }
+  } catch (const DatasetError& e) {
+    result.failure_reason = e.what();
+    return result;
+  }
+  if (options.threads > 0) cv::setNumThreads(options.threads);
+
+  BouguetCamera sized = camera;
+  std::optional<Undistorter> undistorter;
+  const BouguetCamera* used = &sized;
+  auto load = [&](const std::filesystem::path& path) -> cv::Mat {
+    cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+    if (image.empty()) return image;
+    if (sized.width == 0) {
+      sized.width = image.cols;
+      sized.height = image.rows;
+    }
+    if (HasDistortion(sized)) {
+      if (!undistorter) undistorter.emplace(sized);
+      used = &undistorter->output_camera();
+      return undistorter->Apply(image);
+    }
+    return image;
+  };
+
+  const auto step = static_cast<size_t>(options.step);
+  for (size_t i = 0; i + step < frames.size(); ++i) {
+    PairEval p;
+    p.index_a = static_cast<int>(i);
+    p.index_b = static_cast<int>(i + step);
+    p.time_a_s = frames[i].timestamp_s;
+    p.time_b_s = frames[i + step].timestamp_s;
+    p.image_a = frames[i].path.string();
+    p.image_b = frames[i + step].path.string();
+    const cv::Mat image_a = load(frames[i].path);
+    const cv::Mat image_b = load(frames[i + step].path);
+    if (image_a.empty() || image_b.empty()) {
+      p.failure_reason = "cannot read " + (image_a.empty() ? p.image_a : p.image_b);
+      result.pairs.push_back(p);
+      continue;
+    }
+    // Timed twice: from two images, and (the appliance's case) with A's features given.
+    double cpu_start = CpuSeconds();
+    const PairReconstruction r = ReconstructPair(image_a, image_b, *used, options.pair);
+    p.cpu_two_images_s = CpuSeconds() - cpu_start;
+    const Features features_a = ExtractKeyframeFeatures(image_a, options.pair);
+    cpu_start = CpuSeconds();
+    const PairReconstruction again =
+        ReconstructPair(features_a, image_a, image_b, *used, options.pair);
+    p.cpu_after_b_s = CpuSeconds() - cpu_start;
+    p.time_after_b_s = again.times.total_s();
+    p.success = r.success;
+    p.failure_reason = r.failure_reason;
+    p.classification = PairKindName(r.geometry.classification.kind);
+    p.features_a = r.features_a;
+    p.features_b = r.features_b;
+    p.matches = r.matches;
+    p.inliers = r.geometry.num_inliers;
+    p.points = static_cast<int>(r.geometry.points_in_cam_a.size());
+    p.median_triangulation_angle_deg = r.geometry.median_triangulation_angle_deg;
+    p.reprojection_rms_px = r.geometry.reprojection_rms_px;
+    p.times = r.times;
+    p.geometry_times = r.geometry.times;
+    p.time_two_images_s = r.times.total_s();
+    if (trajectory) {
+      const auto wa = trajectory->WorldFromCamAt(p.time_a_s, options.max_gt_dt_s);
+      const auto wb = trajectory->WorldFromCamAt(p.time_b_s, options.max_gt_dt_s);
+      if (wa && wb) {
+        const Eigen::Isometry3d gt = CamBFromCamA(*wa, *wb);
+        p.has_gt = true;
+        p.gt_rotation_deg = RotationErrorDeg(Eigen::Matrix3d::Identity(), gt.linear());
+        p.gt_baseline_m = gt.translation().norm();
+        p.rot_err_deg = RotationErrorDeg(r.geometry.rotation, gt.linear());
+        p.trans_err_deg = DirectionErrorDeg(r.geometry.translation, gt.translation());
+      }
+    }
+    if (r.success && !depth_frames.empty()) {
+      const int d = Nearest(depth_frames, p.time_a_s, options.max_depth_dt_s);
+      if (d >= 0) {
+        const cv::Mat depth =
+            cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
+        if (depth.type() == CV_16UC1 && depth.size() == image_a.size()) {
+          CompareDepth(r, depth, &p);
+        }
+      }
+    }
+    result.pairs.push_back(p);
+  }
+  result.summary = Summarize(result.pairs);
+  result.ok = true;
+  return result;
+}
+
+std::string FormatPairLine(const PairEval& p) {
+  char buf[512];
+  std::snprintf(buf, sizeof(buf),
+                "pair %2d-%-2d %-4s rot %6.3f deg  trans %6.3f deg  inliers %4d  points %4d  "
+                "angle %5.2f deg  time %.3f s (after B %.3f s: sift %.3f match %.3f geom %.3f "
+                "mesh %.3f; CPU %.3f / %.3f s)",
+                p.index_a, p.index_b, p.success ? "ok" : "FAIL", p.rot_err_deg, p.trans_err_deg,
+                p.inliers, p.points, p.median_triangulation_angle_deg, p.time_two_images_s,
+                p.time_after_b_s, p.times.features_b_s, p.times.matching_s, p.times.geometry_s,
+                p.times.meshing_s, p.cpu_two_images_s, p.cpu_after_b_s);
+  std::string line = buf;
+  if (p.has_depth) {
+    std::snprintf(buf, sizeof(buf), "  depth err %.2f %% (%.1f %% within 10 %%, %d pts)",
+                  100 * p.depth_rel_err_median, 100 * p.depth_within_10pct, p.depth_points);
+    line += buf;
+  }
+  if (!p.success) line += "  [" + p.classification + ": " + p.failure_reason + "]";
+  return line;
+}
+
+std::string FormatSummary(const EvalSummary& s) {
+  char buf[768];
+  std::snprintf(buf, sizeof(buf),
+                "summary: %d/%d pairs succeeded\n"
+                "  rotation error    median %.3f deg  p90 %.3f deg\n"
+                "  translation error median %.3f deg  p90 %.3f deg\n"
+                "  time per pair     median %.3f s (two images), %.3f s (after B) wall;"
+                " %.3f s / %.3f s CPU\n",
+                s.succeeded, s.pairs, s.rot_err_median_deg, s.rot_err_p90_deg,
+                s.trans_err_median_deg, s.trans_err_p90_deg, s.time_median_s,
+                s.time_after_b_median_s, s.cpu_median_s, s.cpu_after_b_median_s);
+  std::string out = buf;
+  if (s.depth_pairs > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "  point depth error median %.2f %% (%.1f %% within 10 %%) over %d pair(s)\n",
+                  100 * s.depth_rel_err_median, 100 * s.depth_within_10pct, s.depth_pairs);
+    out += buf;
+  }
+  return out;
+}
+
+std::string EvalToJson(const EvalResult& result) {
+  using json = nlohmann::json;
+  const EvalSummary& s = result.summary;
+  json summary = {{"pairs", s.pairs},
+                  {"succeeded", s.succeeded},
+                  {"rot_err_deg", {{"median", s.rot_err_median_deg}, {"p90", s.rot_err_p90_deg}}},
+                  {"trans_err_deg",
+                   {{"median", s.trans_err_median_deg}, {"p90", s.trans_err_p90_deg}}},
+                  {"time_s", {{"median", s.time_median_s},
+                              {"median_after_b", s.time_after_b_median_s},
+                              {"cpu_median", s.cpu_median_s},
+                              {"cpu_median_after_b", s.cpu_after_b_median_s}}}};
+  if (s.depth_pairs > 0) {
+    summary["point_depth_rel_err"] = {{"median", s.depth_rel_err_median},
+                                      {"within_10pct", s.depth_within_10pct},
+                                      {"pairs", s.depth_pairs}};
+  } else {
+    summary["point_depth_rel_err"] = {{"median", nullptr}, {"within_10pct", nullptr}};
+  }
+  json pairs = json::array();
+  for (const PairEval& p : result.pairs) {
+    json j = {{"a", p.index_a},
+              {"b", p.index_b},
+              {"image_a", p.image_a},
+              {"image_b", p.image_b},
+              {"success", p.success},
+              {"failure_reason", p.failure_reason},
+              {"classification", p.classification},
+              {"features_a", p.features_a},
+              {"features_b", p.features_b},
+              {"matches", p.matches},
+              {"inliers", p.inliers},
+              {"points", p.points},
+              {"median_triangulation_angle_deg", p.median_triangulation_angle_deg},
+              {"reprojection_rms_px", p.reprojection_rms_px},
+              {"time_s",
+               {{"total", p.time_two_images_s},
+                {"after_b", p.time_after_b_s},
+                {"cpu_total", p.cpu_two_images_s},
+                {"cpu_after_b", p.cpu_after_b_s},
+                {"features_a", p.times.features_a_s},
+                {"features_b", p.times.features_b_s},
+                {"matching", p.times.matching_s},
+                {"geometry", p.times.geometry_s},
+                {"meshing", p.times.meshing_s},
+                {"geometry_split",
+                 {{"ransac_f", p.geometry_times.ransac_f_s},
+                  {"ransac_h", p.geometry_times.ransac_h_s},
+                  {"pose", p.geometry_times.pose_s},
+                  {"triangulation", p.geometry_times.triangulation_s},
+                  {"bundle_adjustment", p.geometry_times.bundle_s}}}}}};
+    if (p.has_gt) {
+      j["rot_err_deg"] = p.rot_err_deg;
+      j["trans_err_deg"] = p.trans_err_deg;
+      j["gt_rotation_deg"] = p.gt_rotation_deg;
+      j["gt_baseline_m"] = p.gt_baseline_m;
+    }
+    if (p.has_depth) {
+      j["point_depth_rel_err"] = {{"median", p.depth_rel_err_median},
+                                  {"within_10pct", p.depth_within_10pct},
+                                  {"points", p.depth_points}};
+    }
+    pairs.push_back(std::move(j));
+  }
+  return json{{"summary", summary}, {"pairs", pairs}}.dump(2) + "\n";
+}
+
+}  // namespace mm

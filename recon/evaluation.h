@@ -1,0 +1,86 @@
+#pragma once
+// Evaluation of the two-view reconstruction on a TUM RGB-D style folder (Sturm et al., IROS
+// 2012): every pair (i, i + step) of an image list is reconstructed with ReconstructPair and
+// compared with the ground-truth trajectory (relative rotation error, translation direction
+// error) and, where a depth map of frame i exists, with its depth (value / 5000 m) after one
+// median scale factor. Used by `monomesh eval`, the accuracy test and bench/.
+//
+// Thread-safety: EvaluateTumPairs sets OpenCV's thread count (process-wide) when asked to.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "calib/camera_model.h"
+#include "recon/pipeline.h"
+
+namespace mm {
+
+struct EvalOptions {
+  std::filesystem::path list;      ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
+  int step = 1;                    ///< Pairs (i, i + step).
+  int threads = 1;                 ///< cv::setNumThreads for the run (timings are 1 thread).
+  double max_depth_dt_s = 0.02;    ///< A depth map belongs to a frame within this time.
+  double max_gt_dt_s = 0.1;        ///< Ground-truth extrapolation limit.
+  PairOptions pair;                ///< The reconstruction's options.
+  [[nodiscard]] std::string Check() const;
+};
+
+struct PairEval {
+  int index_a = 0, index_b = 0;
+  double time_a_s = 0, time_b_s = 0;   ///< Dataset timestamps.
+  std::string image_a, image_b;
+  bool success = false;
+  std::string failure_reason;
+  std::string classification;
+  bool has_gt = false;
+  double rot_err_deg = 0, trans_err_deg = 0;   ///< Of the estimate (also when it failed).
+  double gt_rotation_deg = 0, gt_baseline_m = 0;
+  int features_a = 0, features_b = 0, matches = 0, inliers = 0, points = 0;
+  double median_triangulation_angle_deg = 0, reprojection_rms_px = 0;
+  StageTimes times;                    ///< features_a_s is keyframe A's own SIFT.
+  TwoViewTimes geometry_times;         ///< The geometry stage split up.
+  double time_two_images_s = 0;        ///< Whole pair from two images (incl. meshing).
+  double time_after_b_s = 0;           ///< Same, minus keyframe A's SIFT.
+  double cpu_two_images_s = 0;         ///< Process CPU time of the pair (robust to a busy host).
+  double cpu_after_b_s = 0;            ///< Same for the overload with A's features given.
+  bool has_depth = false;
+  int depth_points = 0;                ///< Points with a valid depth pixel.
+  double depth_scale = 0;              ///< Median metres per reconstruction unit.
+  double depth_rel_err_median = 0;     ///< Median |s z - d| / d.
+  double depth_within_10pct = 0;       ///< Share of points with relative error < 0.1.
+};
+
+struct EvalSummary {
+  int pairs = 0, succeeded = 0;
+  double rot_err_median_deg = 0, rot_err_p90_deg = 0;     ///< Over succeeded pairs.
+  double trans_err_median_deg = 0, trans_err_p90_deg = 0;
+  double time_median_s = 0, time_after_b_median_s = 0;
+  double cpu_median_s = 0, cpu_after_b_median_s = 0;
+  int depth_pairs = 0;
+  double depth_rel_err_median = 0;     ///< Median over pairs with depth of their medians.
+  double depth_within_10pct = 0;       ///< Mean over those pairs.
+};
+
+struct EvalResult {
+  bool ok = false;                     ///< False: the dataset could not be read.
+  std::string failure_reason;
+  std::vector<PairEval> pairs;
+  EvalSummary summary;
+};
+
+/// Percentile with linear interpolation between order statistics (numpy's default).
+double Percentile(std::vector<double> values, double percent);
+
+/// Runs the evaluation; dataset errors are reported in the result (ok = false).
+EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetCamera& camera,
+                            const EvalOptions& options);
+
+/// One line per pair (human-readable).
+std::string FormatPairLine(const PairEval& p);
+/// The summary lines (human-readable).
+std::string FormatSummary(const EvalSummary& s);
+/// {"summary": {...}, "pairs": [...]}: degrees, seconds, fractions (schema of issue 4).
+std::string EvalToJson(const EvalResult& result);
+
+}  // namespace mm
