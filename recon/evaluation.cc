@@ -99,6 +99,17 @@ EvalSummary Summarize(const std::vector<PairEval>& pairs) {
   s.time_after_b_median_s = Percentile(after_b, 50);
   s.cpu_median_s = Percentile(cpu, 50);
   s.cpu_after_b_median_s = Percentile(cpu_after_b, 50);
+  std::vector<double> mesh_cov, mesh_med, mesh_p90;
+  for (const PairEval& p : pairs) {
+    if (!p.mesh.valid) continue;
+    mesh_cov.push_back(p.mesh.coverage);
+    mesh_med.push_back(p.mesh.depth_rel_err_median);
+    mesh_p90.push_back(p.mesh.depth_rel_err_p90);
+  }
+  s.mesh_pairs = static_cast<int>(mesh_cov.size());
+  s.mesh_coverage = Percentile(mesh_cov, 50);
+  s.mesh_depth_rel_err_median = Percentile(mesh_med, 50);
+  s.mesh_depth_rel_err_p90 = Percentile(mesh_p90, 50);
   s.depth_pairs = static_cast<int>(depth.size());
   s.depth_rel_err_median = Percentile(depth, 50);
   double sum = 0;
@@ -226,6 +237,11 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
             cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
         if (depth.type() == CV_16UC1 && depth.size() == image_a.size()) {
           CompareDepth(r, depth, &p);
+          if (options.mesh_evaluator) {
+            cv::Mat depth_m;
+            depth.convertTo(depth_m, CV_32F, 1.0 / 5000.0);  // TUM: depth[m] = value / 5000.
+            p.mesh = options.mesh_evaluator(r, used->K(), depth_m);
+          }
         }
       }
     }
@@ -252,6 +268,12 @@ std::string FormatPairLine(const PairEval& p) {
                   100 * p.depth_rel_err_median, 100 * p.depth_within_10pct, p.depth_points);
     line += buf;
   }
+  if (p.mesh.valid) {
+    std::snprintf(buf, sizeof(buf), "  mesh: coverage %.1f %%, depth err %.2f %% (p90 %.1f %%)",
+                  100 * p.mesh.coverage, 100 * p.mesh.depth_rel_err_median,
+                  100 * p.mesh.depth_rel_err_p90);
+    line += buf;
+  }
   if (!p.success) line += "  [" + p.classification + ": " + p.failure_reason + "]";
   return line;
 }
@@ -272,6 +294,14 @@ std::string FormatSummary(const EvalSummary& s) {
     std::snprintf(buf, sizeof(buf),
                   "  point depth error median %.2f %% (%.1f %% within 10 %%) over %d pair(s)\n",
                   100 * s.depth_rel_err_median, 100 * s.depth_within_10pct, s.depth_pairs);
+    out += buf;
+  }
+  if (s.mesh_pairs > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "  mesh depth        coverage %.1f %%, error median %.2f %%, p90 %.1f %% over "
+                  "%d pair(s)\n",
+                  100 * s.mesh_coverage, 100 * s.mesh_depth_rel_err_median,
+                  100 * s.mesh_depth_rel_err_p90, s.mesh_pairs);
     out += buf;
   }
   return out;
@@ -295,6 +325,12 @@ std::string EvalToJson(const EvalResult& result) {
                                       {"pairs", s.depth_pairs}};
   } else {
     summary["point_depth_rel_err"] = {{"median", nullptr}, {"within_10pct", nullptr}};
+  }
+  if (s.mesh_pairs > 0) {
+    summary["mesh"] = {{"coverage", s.mesh_coverage},
+                       {"depth_rel_err", {{"median", s.mesh_depth_rel_err_median},
+                                          {"p90", s.mesh_depth_rel_err_p90}}},
+                       {"pairs", s.mesh_pairs}};
   }
   json pairs = json::array();
   for (const PairEval& p : result.pairs) {
@@ -338,6 +374,11 @@ std::string EvalToJson(const EvalResult& result) {
       j["point_depth_rel_err"] = {{"median", p.depth_rel_err_median},
                                   {"within_10pct", p.depth_within_10pct},
                                   {"points", p.depth_points}};
+    }
+    if (p.mesh.valid) {
+      j["mesh"] = {{"coverage", p.mesh.coverage},
+                   {"depth_rel_err", {{"median", p.mesh.depth_rel_err_median},
+                                      {"p90", p.mesh.depth_rel_err_p90}}}};
     }
     pairs.push_back(std::move(j));
   }

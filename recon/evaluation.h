@@ -12,9 +12,27 @@
 #include <vector>
 
 #include "calib/camera_model.h"
+#include <functional>
+
 #include "recon/pipeline.h"
 
 namespace mm {
+
+/// Mesh figures of one pair against keyframe A's ground-truth depth (issue 5): coverage of the
+/// pixels with ground truth and the relative depth error over them, with the scale taken from
+/// the triangulated points.
+struct MeshFigures {
+  bool valid = false;
+  double coverage = 0.0;
+  double depth_rel_err_median = 0.0;
+  double depth_rel_err_p90 = 0.0;
+};
+
+/// Computes MeshFigures for a pair; gt_depth_m is CV_32FC1 metres (0 = missing). Supplied by the
+/// caller (the renderer lives in a layer above recon).
+using MeshEvaluator = std::function<MeshFigures(const PairReconstruction& pair,
+                                                const Eigen::Matrix3d& K,
+                                                const cv::Mat& gt_depth_m)>;
 
 struct EvalOptions {
   std::filesystem::path list;      ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
@@ -23,6 +41,7 @@ struct EvalOptions {
   double max_depth_dt_s = 0.02;    ///< A depth map belongs to a frame within this time.
   double max_gt_dt_s = 0.1;        ///< Ground-truth extrapolation limit.
   PairOptions pair;                ///< The reconstruction's options.
+  MeshEvaluator mesh_evaluator;    ///< Optional: mesh figures where depth is known.
   [[nodiscard]] std::string Check() const;
 };
 
@@ -49,6 +68,7 @@ struct PairEval {
   double depth_scale = 0;              ///< Median metres per reconstruction unit.
   double depth_rel_err_median = 0;     ///< Median |s z - d| / d.
   double depth_within_10pct = 0;       ///< Share of points with relative error < 0.1.
+  MeshFigures mesh;                    ///< With depth and a mesh evaluator.
 };
 
 struct EvalSummary {
@@ -60,6 +80,10 @@ struct EvalSummary {
   int depth_pairs = 0;
   double depth_rel_err_median = 0;     ///< Median over pairs with depth of their medians.
   double depth_within_10pct = 0;       ///< Mean over those pairs.
+  int mesh_pairs = 0;                  ///< Pairs with mesh figures.
+  double mesh_coverage = 0;            ///< Median over those pairs.
+  double mesh_depth_rel_err_median = 0;  ///< Median over those pairs of their medians.
+  double mesh_depth_rel_err_p90 = 0;     ///< Median over those pairs of their p90s.
 };
 
 struct EvalResult {

@@ -7,6 +7,7 @@
 
 #include "calib/calib_io.h"
 #include "cli/commands.h"
+#include "render/mesh_eval.h"
 #include "recon/evaluation.h"
 
 namespace mm::cli {
@@ -41,6 +42,17 @@ int RunEval(const EvalArgs& args) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
   }
+  // Mesh figures (issue 5): the pair's mesh rendered from camera A against A's depth.
+  options.mesh_evaluator = [](const PairReconstruction& pair, const Eigen::Matrix3d& K,
+                              const cv::Mat& gt_depth_m) {
+    const MeshDepthEval e = EvaluatePairMesh(pair, K, gt_depth_m);
+    MeshFigures f;
+    f.valid = e.success;
+    f.coverage = e.coverage;
+    f.depth_rel_err_median = e.median_rel_err;
+    f.depth_rel_err_p90 = e.p90_rel_err;
+    return f;
+  };
   const EvalResult result = EvaluateTumPairs(args.dataset, camera, options);
   if (!result.ok) {
     std::cerr << "monomesh eval: " << result.failure_reason << "\n";
