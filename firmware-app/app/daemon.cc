@@ -87,6 +87,14 @@ class Worker {
   Worker(const Worker&) = delete;
   Worker& operator=(const Worker&) = delete;
 
+  /// Starts keyframe A's SIFT while the gate waits for B (the worker is idle then). A later
+  /// Submit for the same capture uses the result.
+  void Prepare(uint64_t capture_id, cv::Mat undistorted_a) {
+    std::lock_guard lock(mutex_);
+    prepare_ = PrepareJob{capture_id, std::move(undistorted_a)};
+    cv_.notify_all();
+  }
+
   /// False when a job is already queued or running.
   bool Submit(Job job) {
     std::lock_guard lock(mutex_);
@@ -110,8 +118,18 @@ class Worker {
       Job job;
       {
         std::unique_lock lock(mutex_);
-        cv_.wait(lock, [&] { return stop_ || job_.has_value(); });
+        cv_.wait(lock, [&] { return stop_ || job_.has_value() || prepare_.has_value(); });
         if (stop_) return;
+        if (prepare_.has_value()) {
+          PrepareJob prepare = std::move(*prepare_);
+          prepare_.reset();
+          lock.unlock();
+          Features features = ExtractKeyframeFeatures(prepare.image, config_.recon);
+          lock.lock();
+          features_ = std::move(features);
+          features_capture_ = prepare.capture_id;
+          continue;
+        }
         job = std::move(*job_);
         job_.reset();
         busy_ = true;
@@ -131,8 +149,19 @@ class Worker {
     JobOutcome outcome;
     outcome.capture_id = job.capture_id;
     try {
-      PairJobResult result = RunPairJob(job.undistorted_a, job.undistorted_b, InfoOf(*job.a),
-                                        InfoOf(*job.b), camera_, config_.recon);
+      Features features_a;
+      bool have_features = false;
+      {
+        std::lock_guard lock(mutex_);
+        if (features_capture_ == job.capture_id) {
+          features_a = std::move(features_);
+          have_features = true;
+        }
+        features_capture_ = 0;
+      }
+      PairJobResult result =
+          RunPairJob(job.undistorted_a, job.undistorted_b, InfoOf(*job.a), InfoOf(*job.b),
+                     camera_, config_.recon, have_features ? &features_a : nullptr);
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
       } else {
@@ -165,7 +194,14 @@ class Worker {
   std::condition_variable cv_;
   bool stop_ = false;            // Guarded by mutex_.
   bool busy_ = false;            // Guarded by mutex_.
+  struct PrepareJob {
+    uint64_t capture_id = 0;
+    cv::Mat image;
+  };
   std::optional<Job> job_;       // Guarded by mutex_.
+  std::optional<PrepareJob> prepare_;  // Guarded by mutex_.
+  Features features_;            // Keyframe A's, guarded by mutex_.
+  uint64_t features_capture_ = 0;  // Whose features_ are; guarded by mutex_.
   std::deque<JobOutcome> outcomes_;  // Guarded by mutex_.
 };
 
@@ -383,6 +419,7 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   undistorted_a_ = undistorted;
   last_tracked_sequence_ = keyframe_a_->sequence;
   const int corners = gate_.Start(Gray(undistorted_a_));
+  worker_->Prepare(captures_, undistorted_a_);
   last_decision_ = GateDecision{};
   last_decision_.tracks = corners;
   tracking_deadline_ = std::chrono::steady_clock::now() +

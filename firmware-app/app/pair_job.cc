@@ -24,10 +24,12 @@ nlohmann::json KeyframeJson(const KeyframeInfo& k) {
 
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
                          const KeyframeInfo& b, const BouguetCamera& camera,
-                         const PairOptions& options) {
+                         const PairOptions& options, const Features* features_a) {
   PairJobResult out;
   const auto start = std::chrono::steady_clock::now();
-  out.recon = ReconstructPair(image_a, image_b, camera, options);
+  out.recon = features_a != nullptr
+                  ? ReconstructPair(*features_a, image_a, image_b, camera, options)
+                  : ReconstructPair(image_a, image_b, camera, options);
   const PairReconstruction& r = out.recon;
   const TwoViewResult& g = r.geometry;
 
@@ -35,6 +37,23 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
   report["monomesh_version"] = MM_VERSION;
   report["success"] = r.success;
   report["failure_reason"] = r.failure_reason;
+  report["pair_classification"] = {{"kind", PairKindName(g.classification.kind)},
+                                   {"explanation", g.classification.explanation},
+                                   {"f_inliers", g.classification.f_inliers},
+                                   {"h_inliers", g.classification.h_inliers},
+                                   {"median_flow_px", g.classification.median_flow_px}};
+  report["ransac_f"] = {{"iterations", g.ransac_f.iterations},
+                        {"required_iterations", g.ransac_f.required_iterations},
+                        {"inliers", g.ransac_f.inliers.size()},
+                        {"inlier_rms_px", g.ransac_f.inlier_rms_px}};
+  report["bundle_adjustment"] = {{"ran", g.bundle.ran},
+                                 {"converged", g.bundle.converged},
+                                 {"iterations", g.bundle.iterations},
+                                 {"points", g.bundle.num_points},
+                                 {"initial_rms_px", g.bundle.initial_rms_px},
+                                 {"final_rms_px", g.bundle.final_rms_px},
+                                 {"message", g.bundle.message}};
+  report["keyframe_a_features_precomputed"] = features_a != nullptr;
   report["keyframes"] = {{"a", KeyframeJson(a)}, {"b", KeyframeJson(b)}};
   report["camera"] = {{"image_size", {camera.width, camera.height}},
                       {"fc", {camera.fc.x(), camera.fc.y()}},

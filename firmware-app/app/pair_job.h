@@ -31,8 +31,10 @@ struct PairJobResult {
 };
 
 /// `image_a`/`image_b` are undistorted BGR8 frames seen through `camera` (no distortion).
+/// `features_a`, when given, are keyframe A's features from ExtractKeyframeFeatures (computed
+/// while the gate waited for B), so only B's are computed here.
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
                          const KeyframeInfo& b, const BouguetCamera& camera,
-                         const PairOptions& options);
+                         const PairOptions& options, const Features* features_a = nullptr);
 
 }  // namespace mm

@@ -29,8 +29,10 @@ using json = nlohmann::json;
 using namespace std::chrono_literals;
 
 inline const fs::path kData = fs::path(MM_SOURCE_DIR) / "data/tum_office";
-inline const char* const kEntryFiles[] = {"mesh.ply",    "mesh.obj",         "mesh.mtl",
-                                   "texture.jpg", "calibration.toml", "report.json"};
+inline const char* const kEntryFiles[] = {
+    "mesh.glb",   "mesh.obj",    "mesh.mtl",     "texture.jpg",      "mesh.ply",
+    "points.ply", "cameras.txt", "images.txt",   "points3D.txt",     "preview.png",
+    "keyframe_b.jpg", "calibration.toml", "report.json"};
 
 inline std::string ReadAll(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
