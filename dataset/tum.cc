@@ -24,57 +24,57 @@ bool IsBlankOrComment(const std::string& line) {
   return first == std::string::npos || line[first] == '#';
 }
 
-}  // namespace
-
-std::vector<TumFrame> ReadTumList(const std::filesystem::path& list_file) {
-  std::ifstream in = OpenOrThrow(list_file);
-  const std::filesystem::path folder = list_file.parent_path();
-  std::vector<TumFrame> frames;
+// Calls parse(fields, where) for each data line (blank lines and '#' comments skipped); `where`
+// is "file:line: " for error messages.
+template <typename Parse>
+void ForEachDataLine(const std::filesystem::path& file, Parse parse) {
+  std::ifstream in = OpenOrThrow(file);
   std::string line;
   int line_no = 0;
   while (std::getline(in, line)) {
     ++line_no;
     if (IsBlankOrComment(line)) continue;
     std::istringstream fields(line);
+    parse(fields, Where(file, line_no));
+  }
+}
+
+}  // namespace
+
+std::vector<TumFrame> ReadTumList(const std::filesystem::path& list_file) {
+  const std::filesystem::path folder = list_file.parent_path();
+  std::vector<TumFrame> frames;
+  ForEachDataLine(list_file, [&](std::istringstream& fields, const std::string& where) {
     TumFrame frame;
     std::string path;
     if (!(fields >> frame.timestamp_s >> path)) {
-      throw DatasetError(Where(list_file, line_no) + "expected 'timestamp path'");
+      throw DatasetError(where + "expected 'timestamp path'");
     }
     frame.path = std::filesystem::path(path).is_absolute() ? std::filesystem::path(path)
                                                             : folder / path;
     frames.push_back(std::move(frame));
-  }
+  });
   if (frames.empty()) throw DatasetError(list_file.string() + ": no frames listed");
   return frames;
 }
 
 Trajectory Trajectory::Read(const std::filesystem::path& groundtruth_file) {
-  std::ifstream in = OpenOrThrow(groundtruth_file);
   std::vector<TimedPose> poses;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (IsBlankOrComment(line)) continue;
-    std::istringstream fields(line);
+  ForEachDataLine(groundtruth_file, [&](std::istringstream& fields, const std::string& where) {
     double t = 0;
     double tx = 0, ty = 0, tz = 0, qx = 0, qy = 0, qz = 0, qw = 0;
     if (!(fields >> t >> tx >> ty >> tz >> qx >> qy >> qz >> qw)) {
-      throw DatasetError(Where(groundtruth_file, line_no) +
-                         "expected 'timestamp tx ty tz qx qy qz qw'");
+      throw DatasetError(where + "expected 'timestamp tx ty tz qx qy qz qw'");
     }
     Eigen::Quaterniond q(qw, qx, qy, qz);
-    if (!(q.norm() > 0.5)) {
-      throw DatasetError(Where(groundtruth_file, line_no) + "quaternion is not unit length");
-    }
+    if (!(q.norm() > 0.5)) throw DatasetError(where + "quaternion is not unit length");
     TimedPose pose;
     pose.timestamp_s = t;
     pose.world_from_cam = Eigen::Isometry3d::Identity();
     pose.world_from_cam.linear() = q.normalized().toRotationMatrix();
     pose.world_from_cam.translation() = Eigen::Vector3d(tx, ty, tz);
     poses.push_back(pose);
-  }
+  });
   if (poses.empty()) throw DatasetError(groundtruth_file.string() + ": no poses");
   return Trajectory(std::move(poses));
 }

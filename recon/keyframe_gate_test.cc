@@ -11,6 +11,7 @@
 
 #include "calib/calib_io.h"
 #include "dataset/tum.h"
+#include "tests/support/rotation_sequence.h"
 #include "tests/support/shared_data.h"
 
 namespace mm {
@@ -67,24 +68,7 @@ TEST(KeyframeGate, SixteenConsecutiveTumFramesPassASmallThreshold) {
 // Rotation only: however large the image motion, the gate never fires.
 TEST(KeyframeGate, PureRotationNeverFires) {
   const cv::Mat a = Gray(ReadTumList(kBundled / "rgb.txt")[2].path);
-  const Eigen::Matrix3d k = TumK();
-  std::vector<cv::Mat> frames{a};
-  for (int i = 1; i <= 30; ++i) {
-    // Yaw up to 9 deg and some pitch and roll: image motion of up to ~90 px.
-    const Eigen::Matrix3d r =
-        (Eigen::AngleAxisd(0.3 * i * M_PI / 180, Eigen::Vector3d::UnitY()) *
-         Eigen::AngleAxisd(0.1 * i * M_PI / 180, Eigen::Vector3d::UnitX()) *
-         Eigen::AngleAxisd(0.05 * i * M_PI / 180, Eigen::Vector3d::UnitZ()))
-            .toRotationMatrix();
-    const Eigen::Matrix3d h = k * r * k.inverse();
-    cv::Mat h_cv(3, 3, CV_64F);
-    for (int y = 0; y < 3; ++y) {
-      for (int x = 0; x < 3; ++x) h_cv.at<double>(y, x) = h(y, x);
-    }
-    cv::Mat warped;
-    cv::warpPerspective(a, warped, h_cv, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-    frames.push_back(warped);
-  }
+  const std::vector<cv::Mat> frames = test::RotationOnlySequence(a, TumK(), 30, 0.05);
   KeyframeGateOptions options;
   options.parallax_deg = 0.05;  // Even the small threshold that fires on 2 cm of translation.
   options.min_tracks = 20;

@@ -9,6 +9,7 @@
 
 #include "dataset/tum.h"
 #include "tests/integration/daemon_process.h"
+#include "tests/support/rotation_sequence.h"
 
 namespace mm::test {
 namespace {
@@ -147,21 +148,12 @@ TEST(Daemon, RotationOnlySequenceNeverTakesKeyframeB) {
   const cv::Mat a = cv::imread((kData / "rgb/1341847982.730674.png").string());
   Eigen::Matrix3d k;
   k << 535.4, 0, 320.1, 0, 539.2, 247.6, 0, 0, 1;
+  const std::vector<cv::Mat> frames = RotationOnlySequence(a, k, 30);
   std::ofstream list(dir / "rgb.txt");
-  for (int i = 0; i <= 30; ++i) {
-    const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.3 * i * M_PI / 180, Eigen::Vector3d::UnitY()) *
-                               Eigen::AngleAxisd(0.1 * i * M_PI / 180, Eigen::Vector3d::UnitX()))
-                                  .toRotationMatrix();
-    const Eigen::Matrix3d h = k * r * k.inverse();
-    cv::Mat h_cv(3, 3, CV_64F);
-    for (int y = 0; y < 3; ++y) {
-      for (int x = 0; x < 3; ++x) h_cv.at<double>(y, x) = h(y, x);
-    }
-    cv::Mat warped;
-    cv::warpPerspective(a, warped, h_cv, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  for (size_t i = 0; i < frames.size(); ++i) {
     const std::string file = "rgb/" + std::to_string(i) + ".png";
-    cv::imwrite((dir / file).string(), warped);
-    list << 1000.0 + i / 30.0 << " " << file << "\n";
+    cv::imwrite((dir / file).string(), frames[i]);
+    list << 1000.0 + static_cast<double>(i) / 30.0 << " " << file << "\n";
   }
   list.close();
   fs::copy_file(kData / "calib.toml", dir / "calib.toml");
