@@ -101,6 +101,29 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   const auto* control = r.Table("control", {"socket"});
   r.GetPath(control, "control", "socket", c.config_dir, &c.control_socket);
 
+  const auto* trigger = r.Table("trigger", {"gpio_chip", "gpio_line", "active_low", "bias",
+                                            "debounce_ms"});
+  std::string chip;
+  r.Get(trigger, "trigger", "gpio_chip", &chip);
+  if (!chip.empty()) {
+    c.button_enabled = true;
+    c.button.chip = chip;
+    r.Get(trigger, "trigger", "gpio_line", &c.button.line);
+    r.Require(!c.button.line.empty(), trigger, "trigger", "gpio_line",
+              "missing (offset or line name)");
+    r.Get(trigger, "trigger", "active_low", &c.button.active_low);
+    r.Get(trigger, "trigger", "bias", &c.button.bias);
+    int64_t debounce = c.button.debounce_ms;
+    r.Get(trigger, "trigger", "debounce_ms", &debounce);
+    c.button.debounce_ms = static_cast<int>(debounce);
+    if (const std::string problem = c.button.Check(); !problem.empty()) {
+      const char* key = problem.find("bias") != std::string::npos       ? "bias"
+                        : problem.find("debounce") != std::string::npos ? "debounce_ms"
+                                                                        : "gpio_line";
+      r.Require(false, trigger, "trigger", key, problem);
+    }
+  }
+
   const auto* keyframes = r.Table("keyframes", {"parallax_deg", "min_tracks", "min_inliers",
                                                 "max_homography_inlier_ratio", "timeout_s"});
   int64_t min_tracks = c.gate.min_tracks;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "capture/trigger.h"
 #include "recon/keyframe_gate.h"
 #include "recon/pipeline.h"
 
@@ -24,6 +25,11 @@ struct DaemonConfig {
   std::filesystem::path calibration;  ///< [camera] calibration
 
   std::filesystem::path control_socket = "/run/monomesh/control.sock";  ///< [control] socket
+
+  /// [trigger] gpio_chip, gpio_line, active_low, bias, debounce_ms: the capture button.
+  /// Empty chip: no button (the control socket and SIGUSR1 still trigger).
+  GpioButtonOptions button;
+  bool button_enabled = false;
 
   KeyframeGateOptions gate;           ///< [keyframes] parallax_deg, min_tracks, ...
   double keyframe_timeout_s = 30.0;   ///< [keyframes] timeout_s

@@ -38,6 +38,19 @@ TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
   EXPECT_EQ(c.log_level, defaults.log_level);
 }
 
+TEST(DaemonConfig, GpioButtonIsOptional) {
+  EXPECT_FALSE(ParseDaemonConfig(kMinimal, "/x/d.toml").button_enabled);
+  const DaemonConfig c = ParseDaemonConfig(
+      std::string(kMinimal) + "[trigger]\ngpio_chip = \"pinctrl-bcm2711\"\ngpio_line = \"GPIO17\"\n"
+                              "active_low = true\nbias = \"pull-up\"\ndebounce_ms = 50\n",
+      "/x/d.toml");
+  EXPECT_TRUE(c.button_enabled);
+  EXPECT_EQ(c.button.chip, "pinctrl-bcm2711");
+  EXPECT_EQ(c.button.line, "GPIO17");
+  EXPECT_EQ(c.button.bias, "pull-up");
+  EXPECT_EQ(c.button.debounce_ms, 50);
+}
+
 TEST(DaemonConfig, RelativePathsResolveAgainstConfigFolder) {
   const DaemonConfig c = ParseDaemonConfig(kMinimal, "/etc/monomesh/d.toml");
   EXPECT_EQ(c.calibration, std::filesystem::path("/etc/monomesh/c.toml"));
@@ -57,6 +70,10 @@ TEST(DaemonConfig, ErrorsNameTheKey) {
   ExpectError(std::string(kMinimal) + "[log]\nlevel = \"loud\"\n", "log.level");
   ExpectError("[camera]\ncalibration = \"c.toml\"\n", "camera.uri");
   ExpectError("[camera\n", "not valid TOML");
+  ExpectError(std::string(kMinimal) + "[trigger]\ngpio_chip = \"gpiochip0\"\nbias = \"sideways\"\n",
+              "trigger.bias");
+  ExpectError(std::string(kMinimal) + "[trigger]\ngpio_chip = \"gpiochip0\"\ndebounce_ms = -5\n",
+              "trigger.debounce_ms");
 }
 
 }  // namespace

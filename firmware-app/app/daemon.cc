@@ -28,6 +28,7 @@
 #include "recon/keyframe_gate.h"
 #include "capture/capture_thread.h"
 #include "capture/source_uri.h"
+#include "capture/trigger.h"
 #include "spool/spool.h"
 
 namespace mm {
@@ -249,6 +250,7 @@ class Daemon {
   UniqueFd listen_fd_;
   std::map<int, UniqueFd> clients_;
   std::unique_ptr<CaptureThread> capture_;
+  std::unique_ptr<GpioButton> button_;
   std::unique_ptr<Worker> worker_;
 
   State state_ = State::kIdle;
@@ -332,6 +334,15 @@ int Daemon::Run() {
     return kExitUnavailable;
   }
   AddFd(listen_fd_.get());
+  if (config_.button_enabled) {
+    button_ = std::make_unique<GpioButton>(config_.button);
+    if (std::string error = button_->Open(); !error.empty()) {
+      spdlog::critical("trigger: {}", error);
+      return kExitUnavailable;
+    }
+    AddFd(button_->fd());
+    spdlog::info("trigger: {}", button_->Describe());
+  }
   worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_,
                                      done_event_.get());
 
@@ -374,6 +385,16 @@ int Daemon::Run() {
       } else if (fd == timer_fd_.get()) {
         DrainEventFd(fd);
         OnTimer();
+      } else if (button_ && fd == button_->fd()) {
+        TriggerEvent event;
+        std::string error;
+        const int got = button_->ReadEvent(&event, &error);
+        if (got < 0) {
+          spdlog::error("trigger: {}", error);
+        } else if (got > 0 && event.pressed) {
+          json reply;
+          OnTrigger(event.source.c_str(), &reply);
+        }
       } else if (fd == listen_fd_.get()) {
         for (;;) {
           const int client = ::accept4(fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);

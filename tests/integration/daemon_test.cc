@@ -121,6 +121,14 @@ TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   EXPECT_NE(log.find("camera.fc"), std::string::npos) << log;
 }
 
+TEST(Daemon, MissingGpioChipIsReportedWithTheChip) {
+  DaemonProcess daemon("nogpio", "rate=max",
+                       "[trigger]\ngpio_chip = \"gpiochip-monomesh-absent\"\ngpio_line = \"4\"\n");
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 69);
+  EXPECT_NE(log.find("gpiochip-monomesh-absent"), std::string::npos) << log;
+}
+
 TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
   DaemonProcess daemon("nocamera", "rate=max");
   std::string text = ReadAll(daemon.dir() / "monomeshd.toml");
