@@ -3,7 +3,8 @@
 #   1. `monomesh eval` on the TUM keyframe pairs (step 1): per-pair time from two images and
 #      after keyframe B (A's SIFT precomputed), wall and process CPU, one thread;
 #   2. every *_bench Google Benchmark binary in the build (e.g. recon_matcher_bench);
-#   3. COLMAP (when `colmap` is installed) on the same pairs: feature_extractor,
+#   3. monomeshd's time to READY and peak RSS while reconstructing a 640x480 and a 1280x720 pair;
+#   4. COLMAP (when `colmap` is installed) on the same pairs: feature_extractor,
 #      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT.
 # Prints both and the ratio, and writes everything as JSON. Wall and CPU (user + sys) time are
 # both reported: on a shared, loaded machine the CPU time is the fairer comparison.
@@ -101,6 +102,51 @@ else
   echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): skipped"
 fi
 
+echo "== monomeshd start-up and footprint (bundled keyframes replayed at 640x480 and 1280x720)"
+# Time from exec to READY (the control socket answers once the camera is open) and the daemon's
+# peak RSS (VmHWM) after one capture reconstructed at that size.
+: > "$work/footprint.tsv"
+for size in 640x480 1280x720; do
+  w=${size%x*}; h=${size#*x}
+  sx=$(python3 -c "print($w/640)"); sy=$(python3 -c "print($h/480)")
+  d="$work/daemon-$size"; mkdir -p "$d"
+  python3 - "$root/data/tum_office/calib.toml" "$sx" "$sy" "$w" "$h" > "$d/calib.toml" <<'PY'
+import re, sys
+text, sx, sy, w, h = open(sys.argv[1]).read(), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4], sys.argv[5]
+def scale(key, f):
+    global text
+    m = re.search(rf"^{key}\s*=\s*\[([^\]]*)\]", text, re.M)
+    x, y = (float(v) for v in m.group(1).split(","))
+    text = text.replace(m.group(0), f"{key} = [{x * f[0]!r}, {y * f[1]!r}]")
+scale("fc", (sx, sy)); scale("cc", (sx, sy))
+text = re.sub(r"^image_size\s*=.*$", f"image_size = [{w}, {h}]", text, flags=re.M)
+print(text)
+PY
+  cat > "$d/monomeshd.toml" <<TOML
+[camera]
+uri = "replay:$root/data/tum_office?rate=realtime&loop=1&width=$w&height=$h"
+calibration = "$d/calib.toml"
+[control]
+socket = "$d/control.sock"
+[spool]
+dir = "$d/spool"
+TOML
+  start=$(date +%s.%N)
+  "$build/firmware-app/monomeshd" --config "$d/monomeshd.toml" 2> "$d/log" &
+  pid=$!
+  until "$build/firmware-app/monomesh" ctl ping --socket "$d/control.sock" > /dev/null 2>&1; do
+    kill -0 $pid 2> /dev/null || { cat "$d/log"; exit 1; }
+    sleep 0.005
+  done
+  ready=$(python3 -c "print($(date +%s.%N) - $start)")
+  "$build/firmware-app/monomesh" ctl trigger --wait 120 --socket "$d/control.sock" > "$d/result.json"
+  hwm=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
+  kill -TERM $pid; wait $pid || true
+  ok=$(grep -c '"ok": true' "$d/result.json" || true)
+  printf '%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$ok" >> "$work/footprint.tsv"
+  printf '%s: READY after %.3f s, peak RSS %d MiB, capture ok=%s\n' "$size" "$ready" $((hwm / 1024)) "$ok"
+done
+
 python3 - "$work" "$out" "$colmap_ok" <<'PY'
 import json, statistics, sys
 work, out, colmap_ok = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
@@ -137,6 +183,9 @@ if colmap_ok:
           f"({reg}/{len(rows)} pairs reconstructed)")
     print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
           f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
+result["daemon_footprint"] = [
+    {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]), "capture_ok": r[3] == "1"}
+    for r in (l.split("\t") for l in open(f"{work}/footprint.tsv").read().splitlines() if l)]
 json.dump(result, open(out, "w"), indent=2)
 print(f"written to {out}")
 PY

@@ -1,6 +1,7 @@
 #include "capture/replay_source.h"
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 #include <time.h>
 
@@ -65,6 +66,9 @@ ReadStatus ReplaySource::Read(Frame* frame, std::chrono::milliseconds timeout, s
     *error = "replay: cannot decode image " + item.path.string();
     ++next_;  // Skip it: a corrupt file must not stall the stream.
     return ReadStatus::kError;
+  }
+  if (options_.width > 0 && (image.cols != options_.width || image.rows != options_.height)) {
+    cv::resize(image, image, cv::Size(options_.width, options_.height), 0, 0, cv::INTER_LINEAR);
   }
   frame->image = std::move(image);
   frame->sequence = sequence_++;

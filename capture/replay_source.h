@@ -17,6 +17,8 @@ struct ReplayOptions {
   double speed = 1.0;            ///< Playback speed factor when realtime (> 0).
   bool loop = false;             ///< Start again after the last frame instead of ending.
   bool gray = false;             ///< Deliver GRAY8 instead of BGR8.
+  int width = 0;                 ///< Resize frames to width x height (0: as recorded), e.g. to
+  int height = 0;                ///< replay a dataset as a camera of another resolution.
 
   /// Empty when valid, else a message naming the bad option.
   [[nodiscard]] std::string Check() const;

@@ -64,6 +64,21 @@ TEST(ReplaySource, LoopsWithIncreasingSequence) {
   }
 }
 
+TEST(ReplaySource, ResizesToTheRequestedSize) {
+  const auto dir = MakeDataset("resize", 1);
+  ReplayOptions options;
+  options.realtime = false;
+  options.width = 64;
+  options.height = 36;
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  Frame frame;
+  ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
+  EXPECT_EQ(frame.image.cols, 64);
+  EXPECT_EQ(frame.image.rows, 36);
+}
+
 TEST(ReplaySource, RealtimeNeverDeliversEarly) {
   const auto dir = MakeDataset("realtime", 5);
   ReplayOptions options;
@@ -111,6 +126,8 @@ TEST(SourceUri, ParsesReplayAndRejectsBadParameters) {
   EXPECT_THROW(CreateFrameSource("replay:x?rate=fast"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("replay:x?bogus=1"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("replay:x?speed=-1"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("replay:x?width=640"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("replay:x?width=0&height=10"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("nocolon"), SourceUriError);
   try {
     CreateFrameSource("tape:/dev/st0");

@@ -131,10 +131,21 @@ std::unique_ptr<FrameSource> CreateFrameSource(const std::string& uri, const std
         options.gray = ParseBool(uri, key, value);
       } else if (key == "list") {
         options.list = value;
+      } else if (key == "width" || key == "height") {
+        int v = 0;
+        const auto r = std::from_chars(value.data(), value.data() + value.size(), v);
+        if (r.ec != std::errc() || r.ptr != value.data() + value.size() || v <= 0 || v > 16384) {
+          throw SourceUriError("camera URI '" + uri + "': " + key + "=" + value +
+                               " (expected a size in pixels)");
+        }
+        (key == "width" ? options.width : options.height) = v;
       } else {
         throw SourceUriError("camera URI '" + uri + "': unknown parameter '" + key +
-                             "' (replay takes rate, speed, loop, gray, list)");
+                             "' (replay takes rate, speed, loop, gray, list, width, height)");
       }
+    }
+    if ((options.width > 0) != (options.height > 0)) {
+      throw SourceUriError("camera URI '" + uri + "': give both width and height, or neither");
     }
     std::filesystem::path folder(p.path);
     if (folder.is_relative()) folder = std::filesystem::path(base_dir) / folder;
