@@ -21,7 +21,7 @@ done
 grep -q '"scale": "up to scale' "$entry/report.json" || fail "report.json lacks the scale note"
 vertices=$(sed -n 's/.*"mesh_vertices": \([0-9]*\).*/\1/p' "$entry/report.json")
 triangles=$(sed -n 's/.*"mesh_triangles": \([0-9]*\).*/\1/p' "$entry/report.json")
-points=$(sed -n 's/.*"points": \([0-9]*\).*/\1/p' "$entry/report.json")
+points=$(sed -n 's/.*"points": \([0-9]*\).*/\1/p' "$entry/report.json" | head -1)
 echo "report: $points points, $vertices vertices, $triangles triangles"
 
 # 1. Khronos glTF validator (npm gltf-validator, pinned by tests/gltf/package-lock.json).

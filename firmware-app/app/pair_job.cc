@@ -49,7 +49,7 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
   report["bundle_adjustment"] = {{"ran", g.bundle.ran},
                                  {"converged", g.bundle.converged},
                                  {"iterations", g.bundle.iterations},
-                                 {"points", g.bundle.num_points},
+                                 {"adjusted_points", g.bundle.num_points},
                                  {"initial_rms_px", g.bundle.initial_rms_px},
                                  {"final_rms_px", g.bundle.final_rms_px},
                                  {"message", g.bundle.message}};
