@@ -75,7 +75,9 @@ TEST(BouguetCamera, ProjectAndUnprojectJacobiansMatchNumeric) {
     Eigen::Matrix<double, 2, 3> jp;
     Eigen::Matrix<double, 2, BouguetCamera::kNumIntrinsics> ji;
     const Eigen::Vector2d pix = c.Project(p, &jp, &ji);
-    EXPECT_LT((pix - c.Project(p)).norm(), 1e-12);
+    // Same pixel with and without Jacobians, to rounding: 0 on x86-64; up to 1.6e-12 px on
+    // aarch64, where gcc contracts a * b + c into fused multiply-adds differently in the two paths.
+    EXPECT_LT((pix - c.Project(p)).norm(), 1e-11);
     for (int j = 0; j < 3; ++j) {
       const double h = 1e-6 * std::max(1.0, std::abs(p[j]));
       Eigen::Vector3d e = Eigen::Vector3d::Zero();
