@@ -32,7 +32,10 @@ TEST(DelaunayMesh, GridGivesTwoTrianglesPerCell) {
   const Mesh mesh = BuildDelaunayMesh(points, pixels, 100, 100, MeshOptions{}, &summary);
   EXPECT_EQ(mesh.vertices.size(), 36u);
   EXPECT_EQ(mesh.triangles.size(), 2u * 5 * 5);
-  EXPECT_EQ(summary.delaunay_triangles, 50);
+  // Grid points on the hull may come out not exactly collinear after the projection's rounding
+  // (on aarch64 fused multiply-adds give 3 zero-area slivers along the border); the grazing
+  // filter drops exactly those.
+  EXPECT_EQ(summary.delaunay_triangles - summary.dropped_grazing_angle, 50);
   for (const Eigen::Vector2f& uv : mesh.uvs) {
     EXPECT_GE(uv.x(), 0.0f);
     EXPECT_LE(uv.x(), 1.0f);
@@ -60,7 +63,8 @@ TEST(DelaunayMesh, DropsDepthDiscontinuitiesWhenAsked) {
   MeshSummary summary;
   const Mesh mesh = BuildDelaunayMesh(points, pixels, 100, 100, options, &summary);
   EXPECT_GT(summary.dropped_depth_discontinuity, 0);
-  EXPECT_EQ(static_cast<int>(mesh.triangles.size()) + summary.dropped_depth_discontinuity,
+  EXPECT_EQ(static_cast<int>(mesh.triangles.size()) + summary.dropped_depth_discontinuity +
+                summary.dropped_grazing_angle,
             summary.delaunay_triangles);
 }
 
