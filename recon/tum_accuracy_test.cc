@@ -4,18 +4,15 @@
 #include <gtest/gtest.h>
 
 #include "recon/evaluation.h"
+#include "calib/calib_io.h"
 #include "tests/support/shared_data.h"
 
 namespace mm {
 namespace {
 
+// TUM's published fr3 intrinsics, from the bundled calibration (one source of truth).
 BouguetCamera TumCamera() {
-  BouguetCamera c;
-  c.width = 640;
-  c.height = 480;
-  c.fc = {535.4, 539.2};
-  c.cc = {320.1, 247.6};
-  return c;
+  return LoadCalibration(std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office/calib.toml");
 }
 
 EvalResult RunEval(int step) {
