@@ -165,8 +165,12 @@ std::string MatchOptions::Check() const {
   return {};
 }
 
-std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
-                                    const MatchOptions& options, int64_t* target_used) {
+// Shared by the SIMD matcher and its scalar reference: checks and pads the descriptors, runs
+// `all_pairs` to fill the best matches of every row both ways, then applies the ratio test and
+// the mutual check.
+template <typename AllPairs>
+std::vector<Match> MatchPadded(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
+                               const MatchOptions& options, AllPairs all_pairs) {
   if (descriptors_a.rows < 1 || descriptors_b.rows < 2 ||
       descriptors_a.cols != descriptors_b.cols) {
     return {};
@@ -175,35 +179,44 @@ std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat&
   const matcher_detail::PaddedRows b = matcher_detail::Pad(descriptors_b);
   std::vector<matcher_detail::BestTwo> best_a(a.rows);
   std::vector<matcher_detail::BestOne> best_b(b.rows);
-  const int64_t target = HWY_DYNAMIC_DISPATCH(AllPairsBest)(
-      a.data.data(), a.rows, b.data.data(), b.rows, a.stride, best_a.data(), best_b.data());
-  if (target_used != nullptr) *target_used = target;
+  all_pairs(a, b, best_a, best_b);
   return Select(best_a, best_b, options);
+}
+
+std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
+                                    const MatchOptions& options, int64_t* target_used) {
+  return MatchPadded(
+      descriptors_a, descriptors_b, options,
+      [&](const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
+          std::vector<matcher_detail::BestTwo>& best_a,
+          std::vector<matcher_detail::BestOne>& best_b) {
+        const int64_t target = HWY_DYNAMIC_DISPATCH(AllPairsBest)(
+            a.data.data(), a.rows, b.data.data(), b.rows, a.stride, best_a.data(),
+            best_b.data());
+        if (target_used != nullptr) *target_used = target;
+      });
 }
 
 std::vector<Match> MatchDescriptorsScalar(const cv::Mat& descriptors_a,
                                           const cv::Mat& descriptors_b,
                                           const MatchOptions& options) {
-  if (descriptors_a.rows < 1 || descriptors_b.rows < 2 ||
-      descriptors_a.cols != descriptors_b.cols) {
-    return {};
-  }
-  const matcher_detail::PaddedRows a = matcher_detail::Pad(descriptors_a);
-  const matcher_detail::PaddedRows b = matcher_detail::Pad(descriptors_b);
-  std::vector<matcher_detail::BestTwo> best_a(a.rows);
-  std::vector<matcher_detail::BestOne> best_b(b.rows);
-  for (size_t i = 0; i < a.rows; ++i) {
-    for (size_t j = 0; j < b.rows; ++j) {
-      float s = 0;
-      for (size_t k = 0; k < a.stride; ++k) {
-        const float e = a.data[i * a.stride + k] - b.data[j * b.stride + k];
-        s += e * e;
-      }
-      matcher_detail::Update(s, static_cast<int>(i), static_cast<int>(j), &best_a[i],
-                             &best_b[j]);
-    }
-  }
-  return Select(best_a, best_b, options);
+  return MatchPadded(
+      descriptors_a, descriptors_b, options,
+      [](const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
+         std::vector<matcher_detail::BestTwo>& best_a,
+         std::vector<matcher_detail::BestOne>& best_b) {
+        for (size_t i = 0; i < a.rows; ++i) {
+          for (size_t j = 0; j < b.rows; ++j) {
+            float s = 0;
+            for (size_t k = 0; k < a.stride; ++k) {
+              const float e = a.data[i * a.stride + k] - b.data[j * b.stride + k];
+              s += e * e;
+            }
+            matcher_detail::Update(s, static_cast<int>(i), static_cast<int>(j), &best_a[i],
+                                   &best_b[j]);
+          }
+        }
+      });
 }
 
 }  // namespace mm
