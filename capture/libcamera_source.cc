@@ -44,7 +44,9 @@ std::vector<std::string> ListLibcameraCameras(std::string* error) {
   return ids;
 }
 
-LibcameraSource::LibcameraSource(LibcameraOptions options) : options_(std::move(options)) {
+LibcameraSource::LibcameraSource(LibcameraOptions options)
+    : options_(std::move(options)),
+      recovery_({options_.lost_after_ms, options_.reopen_min_ms, options_.reopen_max_ms}) {
   description_ = "libcamera:" + options_.camera + " (not open)";
 }
 
@@ -54,8 +56,7 @@ std::string LibcameraSource::Open() {
   Close();
   if (std::string e = OpenCamera(); !e.empty()) return e;
   opened_ = true;
-  lost_ = false;
-  backoff_ms_ = options_.reopen_min_ms;
+  recovery_.Reset();
   return {};
 }
 
@@ -162,7 +163,7 @@ std::string LibcameraSource::OpenCamera() {
   }
   started_ = true;
   for (auto& request : requests_) camera_->queueRequest(request.get());
-  last_frame_ = std::chrono::steady_clock::now();
+  recovery_.FrameArrived();  // The silence clock starts with the stream.
   std::lock_guard lock(describe_mutex_);
   description_ = "libcamera:" + id_ + " " + sc.toString() + " -> " + (options_.gray ? "GRAY8" : "BGR8");
   return {};
@@ -212,15 +213,12 @@ void LibcameraSource::Close() {
   CloseCamera();
   manager_.reset();
   opened_ = false;
-  lost_ = false;
+  recovery_.Reset();
 }
 
 std::string LibcameraSource::Lose(const std::string& why) {
   CloseCamera();
-  lost_ = true;
-  ++losses_;
-  backoff_ms_ = options_.reopen_min_ms;
-  next_reopen_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(backoff_ms_);
+  recovery_.Lose();
   std::lock_guard lock(describe_mutex_);
   description_ = "libcamera:" + (id_.empty() ? options_.camera : id_) + " (lost: " + why + "; reopening)";
   return "libcamera " + (id_.empty() ? options_.camera : id_) + ": camera lost (" + why +
@@ -234,18 +232,13 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
     if (error) *error = "libcamera " + options_.camera + ": Read() before Open()";
     return ReadStatus::kError;
   }
-  if (lost_) {
-    if (Clock::now() < next_reopen_) {
-      std::this_thread::sleep_until(std::min(deadline, next_reopen_));
-      return ReadStatus::kTimeout;
-    }
+  if (recovery_.lost()) {
+    if (!recovery_.AttemptDue(deadline)) return ReadStatus::kTimeout;
     if (!OpenCamera().empty()) {
-      backoff_ms_ = std::min(backoff_ms_ * 2, options_.reopen_max_ms);
-      next_reopen_ = Clock::now() + std::chrono::milliseconds(backoff_ms_);
+      recovery_.AttemptFailed();
       return ReadStatus::kTimeout;
     }
-    lost_ = false;
-    ++reopens_;
+    recovery_.AttemptSucceeded();
   }
   libcamera::Request* request = nullptr;
   {
@@ -259,7 +252,7 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
     }
     if (completed_.empty()) {
       lock.unlock();
-      if (Clock::now() - last_frame_ > std::chrono::milliseconds(options_.lost_after_ms)) {
+      if (recovery_.Silent()) {
         const std::string e = Lose("no frame for " + std::to_string(options_.lost_after_ms) + " ms");
         if (error) *error = e;
         return ReadStatus::kError;
@@ -269,7 +262,7 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
     request = completed_.front();
     completed_.pop_front();
   }
-  last_frame_ = Clock::now();
+  recovery_.FrameArrived();
   libcamera::FrameBuffer* buffer = request->findBuffer(stream_);
   const libcamera::FrameMetadata& md = buffer->metadata();
   const Mapping& m = mappings_.at(request->cookie());

@@ -17,6 +17,7 @@
 
 #include "capture/frame.h"
 #include "capture/pixel_format.h"
+#include "capture/recovery.h"
 
 namespace libcamera {
 class Camera;
@@ -50,8 +51,8 @@ class LibcameraSource final : public FrameSource {
   void Close() override;
   [[nodiscard]] std::string Describe() const override;
 
-  [[nodiscard]] uint64_t losses() const { return losses_; }
-  [[nodiscard]] uint64_t reopens() const { return reopens_; }
+  [[nodiscard]] uint64_t losses() const { return recovery_.losses(); }
+  [[nodiscard]] uint64_t reopens() const { return recovery_.reopens(); }
 
  private:
   struct Mapping {
@@ -71,7 +72,7 @@ class LibcameraSource final : public FrameSource {
   std::vector<std::unique_ptr<libcamera::Request>> requests_;
   std::vector<Mapping> mappings_;  // One per buffer (planes of one buffer share the mapping).
   libcamera::Stream* stream_ = nullptr;
-  bool started_ = false, acquired_ = false, opened_ = false, lost_ = false;
+  bool started_ = false, acquired_ = false, opened_ = false;
   std::string id_;
 
   std::mutex mutex_;
@@ -84,9 +85,7 @@ class LibcameraSource final : public FrameSource {
   size_t stride_ = 0;
   MjpegDecoder decoder_;
   uint64_t sequence_ = 0;
-  uint64_t losses_ = 0, reopens_ = 0;
-  int backoff_ms_ = 0;
-  std::chrono::steady_clock::time_point next_reopen_, last_frame_;
+  DeviceRecovery recovery_;
   mutable std::mutex describe_mutex_;
   std::string description_;
 };

@@ -132,7 +132,9 @@ std::string DescribeOffers(const std::vector<V4l2FormatOffer>& offers) {
   return out;
 }
 
-V4l2Source::V4l2Source(V4l2Options options) : options_(std::move(options)) {
+V4l2Source::V4l2Source(V4l2Options options)
+    : options_(std::move(options)),
+      recovery_({options_.lost_after_ms, options_.reopen_min_ms, options_.reopen_max_ms}) {
   description_ = "v4l2:" + options_.device + " (not open)";
 }
 
@@ -144,8 +146,7 @@ std::string V4l2Source::Open() {
   std::string error = OpenDevice();
   if (!error.empty()) return error;
   opened_ = true;
-  lost_ = false;
-  backoff_ms_ = options_.reopen_min_ms;
+  recovery_.Reset();
   return {};
 }
 
@@ -313,7 +314,7 @@ std::string V4l2Source::OpenDevice() {
     return where + "VIDIOC_STREAMON: " + Errno(err);
   }
   streaming_ = true;
-  last_frame_ = std::chrono::steady_clock::now();
+  recovery_.FrameArrived();  // The silence clock starts with the stream.
   {
     std::lock_guard lock(describe_mutex_);
     description_ = "v4l2:" + dev + " '" + card_ + "' " + FourccName(fourcc_) + " " +
@@ -383,15 +384,12 @@ void V4l2Source::CloseDevice() {
 void V4l2Source::Close() {
   CloseDevice();
   opened_ = false;
-  lost_ = false;
+  recovery_.Reset();
 }
 
 std::string V4l2Source::Lose(const std::string& why) {
   CloseDevice();
-  lost_ = true;
-  ++losses_;
-  backoff_ms_ = options_.reopen_min_ms;
-  next_reopen_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(backoff_ms_);
+  recovery_.Lose();
   {
     std::lock_guard lock(describe_mutex_);
     description_ = "v4l2:" + options_.device + " (lost: " + why + "; reopening)";
@@ -406,20 +404,17 @@ ReadStatus V4l2Source::Read(Frame* frame, std::chrono::milliseconds timeout, std
     if (error) *error = "v4l2 " + options_.device + ": Read() before Open()";
     return ReadStatus::kError;
   }
-  if (lost_) {
-    const auto now = Clock::now();
-    if (now < next_reopen_) {
-      std::this_thread::sleep_until(std::min(deadline, next_reopen_));
-      return ReadStatus::kTimeout;
-    }
+  if (recovery_.lost()) {
+    if (!recovery_.AttemptDue(deadline)) return ReadStatus::kTimeout;
     last_reopen_error_ = OpenDevice();
     if (!last_reopen_error_.empty()) {
-      backoff_ms_ = std::min(backoff_ms_ * 2, options_.reopen_max_ms);
-      next_reopen_ = Clock::now() + std::chrono::milliseconds(backoff_ms_);
+      recovery_.AttemptFailed();
+      std::lock_guard lock(describe_mutex_);
+      description_ = "v4l2:" + options_.device + " (lost; last reopen: " + last_reopen_error_ +
+                     "; next in " + std::to_string(recovery_.backoff_ms()) + " ms)";
       return ReadStatus::kTimeout;
     }
-    lost_ = false;
-    ++reopens_;
+    recovery_.AttemptSucceeded();
   }
 
   while (true) {
@@ -434,7 +429,7 @@ ReadStatus V4l2Source::Read(Frame* frame, std::chrono::milliseconds timeout, std
       return ReadStatus::kError;
     }
     if (r == 0) {
-      if (Clock::now() - last_frame_ > std::chrono::milliseconds(options_.lost_after_ms)) {
+      if (recovery_.Silent()) {
         if (error) {
           *error = Lose("no frame for " + std::to_string(options_.lost_after_ms) + " ms");
         } else {
@@ -478,7 +473,7 @@ ReadStatus V4l2Source::Read(Frame* frame, std::chrono::milliseconds timeout, std
       if (error) *error = Lose("VIDIOC_QBUF: " + Errno(errno));
       return ReadStatus::kError;
     }
-    last_frame_ = Clock::now();
+    recovery_.FrameArrived();
     if (bad) {
       if (Clock::now() >= deadline) return ReadStatus::kTimeout;
       continue;  // A corrupt buffer from the driver: skip it.

@@ -17,6 +17,7 @@
 
 #include "capture/frame.h"
 #include "capture/pixel_format.h"
+#include "capture/recovery.h"
 #include "base/unique_fd.h"
 
 namespace mm {
@@ -66,8 +67,8 @@ class V4l2Source final : public FrameSource {
   [[nodiscard]] std::string Describe() const override;
 
   /// Times the device was lost and reopened since Open().
-  [[nodiscard]] uint64_t losses() const { return losses_; }
-  [[nodiscard]] uint64_t reopens() const { return reopens_; }
+  [[nodiscard]] uint64_t losses() const { return recovery_.losses(); }
+  [[nodiscard]] uint64_t reopens() const { return recovery_.reopens(); }
   /// What the device offered at the last open (empty before).
   [[nodiscard]] const std::vector<V4l2FormatOffer>& offers() const { return offers_; }
 
@@ -88,10 +89,7 @@ class V4l2Source final : public FrameSource {
   std::vector<Buffer> buffers_;
   bool streaming_ = false;
   bool opened_ = false;  // Open() succeeded and Close() not yet called.
-  bool lost_ = false;
-  std::chrono::steady_clock::time_point next_reopen_;
-  int backoff_ms_ = 0;
-  std::chrono::steady_clock::time_point last_frame_;
+  DeviceRecovery recovery_;
   std::string last_reopen_error_;
 
   // Negotiated.
@@ -105,7 +103,6 @@ class V4l2Source final : public FrameSource {
 
   MjpegDecoder decoder_;
   uint64_t sequence_ = 0;
-  std::atomic<uint64_t> losses_{0}, reopens_{0};
   mutable std::mutex describe_mutex_;
   std::string description_;  // Guarded by describe_mutex_.
 };

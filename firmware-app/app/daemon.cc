@@ -19,6 +19,7 @@
 #include <optional>
 #include <opencv2/imgproc.hpp>
 #include <thread>
+#include <vector>
 
 #include "app/control.h"
 #include "app/pair_job.h"
@@ -236,6 +237,7 @@ class Daemon {
   void SetState(State s);
   void EndCapture(const std::string& error);
   void AddFd(int fd);
+  Trigger* FindTrigger(int fd) const;
   static cv::Mat Gray(const cv::Mat& image);
 
   const DaemonConfig& config_;
@@ -250,11 +252,12 @@ class Daemon {
   UniqueFd listen_fd_;
   std::map<int, UniqueFd> clients_;
   std::unique_ptr<CaptureThread> capture_;
-  std::unique_ptr<GpioButton> button_;
+  std::vector<std::unique_ptr<Trigger>> triggers_;  // SIGUSR1, the GPIO button when configured.
   std::unique_ptr<Worker> worker_;
 
   State state_ = State::kIdle;
   uint64_t captures_ = 0;
+  std::string last_trigger_;  // Origin of the last accepted trigger, e.g. "SIGUSR1".
   uint64_t succeeded_ = 0;
   FramePtr keyframe_a_;
   cv::Mat undistorted_a_;
@@ -274,6 +277,13 @@ void Daemon::AddFd(int fd) {
   if (::epoll_ctl(epoll_.get(), EPOLL_CTL_ADD, fd, &ev) != 0) {
     throw std::runtime_error(std::string("epoll_ctl: ") + std::strerror(errno));
   }
+}
+
+Trigger* Daemon::FindTrigger(int fd) const {
+  for (const auto& trigger : triggers_) {
+    if (trigger->fd() == fd) return trigger.get();
+  }
+  return nullptr;
 }
 
 void Daemon::SetState(State s) {
@@ -299,9 +309,15 @@ int Daemon::Run() {
   done_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   sigset_t signals;
   sigemptyset(&signals);
-  for (int s : {SIGTERM, SIGINT, SIGUSR1, SIGHUP}) sigaddset(&signals, s);
-  // Block before any thread starts, so every thread inherits the mask and signalfd sees them.
+  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
+  // Block before any thread starts, so every thread inherits the mask and signalfd sees them
+  // (SIGUSR1 likewise, through its SignalTrigger).
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  triggers_.push_back(std::make_unique<SignalTrigger>(SIGUSR1));
+  if (std::string error = triggers_.back()->Open(); !error.empty()) {
+    spdlog::critical("trigger: {}", error);
+    return kExitUnavailable;
+  }
   ::signal(SIGPIPE, SIG_IGN);
   signal_fd_.reset(::signalfd(-1, &signals, SFD_NONBLOCK | SFD_CLOEXEC));
   timer_fd_.reset(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC));
@@ -335,13 +351,15 @@ int Daemon::Run() {
   }
   AddFd(listen_fd_.get());
   if (config_.button_enabled) {
-    button_ = std::make_unique<GpioButton>(config_.button);
-    if (std::string error = button_->Open(); !error.empty()) {
+    triggers_.push_back(std::make_unique<GpioButton>(config_.button));
+    if (std::string error = triggers_.back()->Open(); !error.empty()) {
       spdlog::critical("trigger: {}", error);
       return kExitUnavailable;
     }
-    AddFd(button_->fd());
-    spdlog::info("trigger: {}", button_->Describe());
+  }
+  for (const auto& trigger : triggers_) {
+    AddFd(trigger->fd());
+    spdlog::info("trigger: {}", trigger->Describe());
   }
   worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_,
                                      done_event_.get());
@@ -366,10 +384,7 @@ int Daemon::Run() {
       if (fd == signal_fd_.get()) {
         signalfd_siginfo info{};
         while (::read(fd, &info, sizeof(info)) == sizeof(info)) {
-          if (info.ssi_signo == SIGUSR1) {
-            json reply;
-            OnTrigger("SIGUSR1", &reply);
-          } else if (info.ssi_signo == SIGHUP) {
+          if (info.ssi_signo == SIGHUP) {
             spdlog::info("SIGHUP ignored (restart the service to reload the config)");
           } else {
             spdlog::info("signal {}: stopping", info.ssi_signo);
@@ -385,10 +400,10 @@ int Daemon::Run() {
       } else if (fd == timer_fd_.get()) {
         DrainEventFd(fd);
         OnTimer();
-      } else if (button_ && fd == button_->fd()) {
+      } else if (Trigger* trigger = FindTrigger(fd)) {
         TriggerEvent event;
         std::string error;
-        const int got = button_->ReadEvent(&event, &error);
+        const int got = trigger->ReadEvent(&event, &error);
         if (got < 0) {
           spdlog::error("trigger: {}", error);
         } else if (got > 0 && event.pressed) {
@@ -436,6 +451,7 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
     return;
   }
   ++captures_;
+  last_trigger_ = origin;
   keyframe_a_ = std::move(latest);
   undistorted_a_ = undistorted;
   last_tracked_sequence_ = keyframe_a_->sequence;
@@ -567,6 +583,13 @@ json Daemon::Status() {
   return {{"ok", true},
           {"state", Name(state_)},
           {"captures", captures_},
+          {"last_trigger", last_trigger_},
+          {"triggers", [this] {
+             json list = json::array();
+             for (const auto& t : triggers_) list.push_back(t->Describe());
+             list.push_back("control socket " + config_.control_socket.string());
+             return list;
+           }()},
           {"meshes", succeeded_},
           {"camera", {{"source", capture_->Describe()},
                       {"frames", stats.frames},

@@ -45,8 +45,20 @@ TEST(Daemon, TriggerProducesCompleteEntryMatchingGroundTruth) {
             << report["keyframes"]["b"]["source"] << ": rotation error " << err << " deg, "
             << report["counts"]["mesh_vertices"] << " vertices\n";
 
-  EXPECT_EQ(daemon.Command("trigger").value("ok", true), true);  // Idle again: accepted.
-  EXPECT_FALSE(daemon.Command("trigger").value("ok", true));     // Tracking: refused as busy.
+  EXPECT_EQ(daemon.Status()["last_trigger"], "control socket");
+  // SIGUSR1 is a trigger too (the same path as the socket and the GPIO button).
+  const uint64_t captures = daemon.Status()["captures"].get<uint64_t>();
+  ::kill(daemon.pid(), SIGUSR1);
+  json status;
+  for (int i = 0; i < 100; ++i) {
+    status = daemon.Status();
+    if (status["captures"].get<uint64_t>() > captures) break;
+    std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_EQ(status["captures"].get<uint64_t>(), captures + 1) << status.dump();
+  EXPECT_EQ(status["last_trigger"], "SIGUSR1");
+  EXPECT_NE(status["state"], "idle");
+  EXPECT_FALSE(daemon.Command("trigger").value("ok", true));  // Tracking: refused as busy.
   EXPECT_FALSE(daemon.Command("bogus").value("ok", true));
   EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
 }

@@ -1,6 +1,6 @@
 #!/bin/busybox sh
 # /init of the qemu guest of tests/kernel/run.sh: loads the drivers, runs the checks in order
-# (v4l2loopback and vivid, gpio-sim, vimc via libcamera, removal and recovery), prints one CHECK line each, powers off.
+# (v4l2loopback and vivid, gpio-sim, vimc via libcamera, loss, removal and recovery), prints one CHECK line each, powers off.
 /bin/busybox --install -s /bin
 export PATH=/bin
 mount -t proc proc /proc
@@ -9,7 +9,8 @@ mount -t devtmpfs dev /dev
 echo "GUEST up $(uname -r)"
 
 load() { modprobe "$@" 2>&1 | sed 's/^/GUEST modprobe: /'; }
-load v4l2loopback video_nr=10 card_label=monomesh-loopback max_buffers=8
+LOOPBACK_ARGS='video_nr=10 card_label=monomesh-loopback max_buffers=8'
+load v4l2loopback $LOOPBACK_ARGS
 load vivid n_devs=1 node_types=0x1 vid_cap_nr=0
 sleep 1
 run() { /bin/kernel_checks "$@" || true; }
@@ -50,6 +51,8 @@ LIBCAMERA_LOG_LEVELS='*:ERROR' run libcamera --camera 'platform/vimc.0 Sensor B'
 
 # 5. Removal while streaming and recovery without a restart.
 run stall --device /dev/video10 --frames /frames
+run remove --device /dev/video10 --frames /frames --remove 'rmmod v4l2loopback' \
+  --add "modprobe v4l2loopback $LOOPBACK_ARGS"
 run unplug --device /dev/video0 --driver /sys/bus/platform/drivers/vivid --name vivid.0
 
 echo "GUEST done"

@@ -4,11 +4,13 @@
 // dataset comes as binary PPM files decoded on the host by `kernel_prepare`.
 
 #include <poll.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -361,6 +363,69 @@ int CheckLoopbackStall(const std::map<std::string, std::string>& a) {
                     " reopen(s)");
 }
 
+// The loopback device removed while streaming and added back, in one process with one
+// V4l2Source: the writer goes away, the source reports the loss and closes the device (so the
+// module can go: v4l2loopback 0.12.7 cannot delete a device that is open), the module is
+// removed (/dev/videoN disappears; the back-off reopens fail), loaded again, the writer comes
+// back, and the same source delivers frames again.
+int CheckLoopbackRemove(const std::map<std::string, std::string>& a) {
+  const std::string device = a.at("--device");
+  const std::string name = "loopback-removed-recovery";
+  const std::vector<cv::Mat> frames = ReadFrames(a.at("--frames"));
+  if (frames.empty()) return Report(name, false, "no frames");
+  auto read_frames = [](V4l2Source& source, int n, std::chrono::seconds limit, std::string* lost) {
+    int got = 0;
+    const auto end = Clock::now() + limit;
+    while (got < n && Clock::now() < end) {
+      Frame f;
+      std::string error;
+      const ReadStatus s = source.Read(&f, 200ms, &error);
+      if (s == ReadStatus::kFrame) ++got;
+      if (s == ReadStatus::kError && lost) {
+        *lost = error;
+        return got;
+      }
+    }
+    return got;
+  };
+  auto feed = std::make_unique<FeedThread>(device, frames, PixelFormat::kGrey, 10);
+  if (std::string e = feed->Start(); !e.empty()) return Report(name, false, e);
+  std::this_thread::sleep_for(200ms);
+  V4l2Options options = V4l2(device, "grey", 0, 0, true);
+  options.lost_after_ms = 1000;
+  options.reopen_min_ms = 50;
+  options.reopen_max_ms = 400;
+  V4l2Source source(options);
+  if (std::string e = source.Open(); !e.empty()) return Report(name, false, e);
+  const int before = read_frames(source, 3, 10s, nullptr);
+  feed.reset();  // The writer closes the device.
+  std::string lost;
+  read_frames(source, 1000, 10s, &lost);
+  // The source has closed the device: the module can be removed now.
+  const int removed = std::system(a.at("--remove").c_str());
+  const bool gone = ::access(device.c_str(), F_OK) != 0;
+  const int while_gone = read_frames(source, 1, 2s, nullptr);  // Reopen attempts fail.
+  const std::string described_gone = source.Describe();
+  const int added = std::system(a.at("--add").c_str());
+  std::string restart_error = "device node did not come back";
+  for (auto end = Clock::now() + 10s; Clock::now() < end; std::this_thread::sleep_for(100ms)) {
+    if (::access(device.c_str(), F_OK) != 0) continue;
+    feed = std::make_unique<FeedThread>(device, frames, PixelFormat::kGrey, 10);
+    restart_error = feed->Start();
+    if (restart_error.empty()) break;
+  }
+  const int after = read_frames(source, 3, 20s, nullptr);
+  const bool pass = before == 3 && lost.find("lost") != std::string::npos && removed == 0 &&
+                    gone && while_gone == 0 && added == 0 && after == 3 && source.reopens() >= 1;
+  return Report(name, pass,
+                std::to_string(before) + " frames, writer gone -> [" + lost + "], module removed (" +
+                    (gone ? device + " gone" : device + " still there") + ", " +
+                    std::to_string(while_gone) + " frames, [" + described_gone +
+                    "]), module added" + (restart_error.empty() ? "" : " (" + restart_error + ")") +
+                    " -> " + std::to_string(after) + " frames after " +
+                    std::to_string(source.reopens()) + " reopen(s)");
+}
+
 // libcamera lists vimc's camera and LibcameraSource captures from it.
 int CheckLibcamera(const std::map<std::string, std::string>& a) {
   const std::string want = a.at("--camera");
@@ -416,6 +481,7 @@ int main(int argc, char** argv) {
     if (cmd == "gpio") return mm::CheckGpio(a);
     if (cmd == "unplug") return mm::CheckUnplug(a);
     if (cmd == "stall") return mm::CheckLoopbackStall(a);
+    if (cmd == "remove") return mm::CheckLoopbackRemove(a);
     if (cmd == "libcamera") return mm::CheckLibcamera(a);
   } catch (const std::exception& e) {
     return mm::Report(cmd, false, std::string("exception: ") + e.what());
