@@ -1,10 +1,14 @@
 // `monomesh eval --dataset DIR --calib C [--list FILE] [--step N] [--json FILE]`: run the
 // two-view reconstruction on every pair (i, i+N) of a TUM-format folder and compare with its
 // ground truth (recon/evaluation.h holds the logic).
+// `monomesh eval --dataset DIR --spool SPOOL [--feed-log FILE] [--json FILE]`: instead, compare
+// the daemon's spool entries (their report.json) with the dataset's ground truth
+// (app/entry_eval.h).
 
 #include <fstream>
 #include <iostream>
 
+#include "app/entry_eval.h"
 #include "calib/calib_io.h"
 #include "cli/commands.h"
 #include "render/mesh_eval.h"
@@ -14,7 +18,7 @@ namespace mm::cli {
 namespace {
 
 struct EvalArgs {
-  std::string dataset, calib, list, json;
+  std::string dataset, calib, list, json, spool, feed_log;
   int step = 1;
   int threads = 1;
   int first_octave = EvalOptions{}.pair.sift.first_octave;
@@ -26,7 +30,31 @@ struct EvalArgs {
   bool quiet = false;
 };
 
+int RunEntryEval(const EvalArgs& args) {
+  const EntryEvalResult result = EvaluateSpoolEntries(
+      {.spool = args.spool, .dataset = args.dataset, .feed_log = args.feed_log});
+  if (!result.ok) {
+    std::cerr << "monomesh eval: " << result.failure_reason << "\n";
+    return 1;
+  }
+  std::cout << FormatEntryEval(result);
+  if (!args.json.empty()) {
+    std::ofstream out(args.json);
+    out << EntryEvalToJson(result);
+    if (!out) {
+      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
+      return 1;
+    }
+  }
+  return 0;
+}
+
 int RunEval(const EvalArgs& args) {
+  if (!args.spool.empty()) return RunEntryEval(args);
+  if (args.calib.empty()) {
+    std::cerr << "monomesh eval: --calib is required (unless --spool is given)\n";
+    return 2;
+  }
   const BouguetCamera camera = LoadCalibration(args.calib);
   EvalOptions options;
   options.list = args.list;
@@ -82,8 +110,12 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--dataset", args->dataset, "TUM-format folder (rgb.txt, groundtruth.txt)")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--calib", args->calib, "Calibration (TOML)")
-      ->required()
+  cmd->add_option("--calib", args->calib, "Calibration (TOML)")->check(CLI::ExistingFile);
+  cmd->add_option("--spool", args->spool,
+                  "Evaluate the daemon's spool entries (report.json) instead of reconstructing")
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--feed-log", args->feed_log,
+                  "With --spool: `monomesh feed --log` output mapping device timestamps to frames")
       ->check(CLI::ExistingFile);
   cmd->add_option("--list", args->list, "Image list instead of rgb.txt (e.g. keyframes_1hz.txt)");
   cmd->add_option("--step", args->step, "Pair frames i and i+N")->check(CLI::PositiveNumber);

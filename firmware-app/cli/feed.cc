@@ -2,6 +2,7 @@
 // included) sees the dataset as a real camera.
 
 #include <csignal>
+#include <fstream>
 #include <iostream>
 #include <thread>
 
@@ -15,7 +16,7 @@ namespace {
 volatile std::sig_atomic_t g_stop = 0;
 
 int RunFeed(const std::string& device, const std::string& dataset, double fps,
-            const std::string& format_name, bool loop, int64_t count) {
+            const std::string& format_name, bool loop, int64_t count, const std::string& log_path) {
   using Clock = std::chrono::steady_clock;
   const auto format = ParsePixelFormat(format_name);
   if (!format || (*format != PixelFormat::kGrey && *format != PixelFormat::kYuyv)) {
@@ -32,6 +33,20 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
   }
   std::signal(SIGINT, [](int) { g_stop = 1; });
   std::signal(SIGTERM, [](int) { g_stop = 1; });
+  // The feed log maps the device's timestamps (v4l2loopback stamps a frame with
+  // CLOCK_MONOTONIC when it is written) back to the dataset frame: `monomesh eval --spool
+  // --feed-log` evaluates the daemon's keyframes with it.
+  std::ofstream log;
+  if (!log_path.empty()) {
+    log.open(log_path);
+    if (!log) {
+      std::cerr << "monomesh feed: cannot write the log " << log_path << "\n";
+      return 1;
+    }
+    log << "# monomesh feed " << dataset << " -> " << device << ": monotonic_time_s dataset_time_s\n";
+    log.setf(std::ios::fixed);
+    log.precision(6);
+  }
   LoopbackFeeder feeder;
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / fps));
   auto next = Clock::now();
@@ -54,9 +69,14 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
       std::cerr << "feeding " << dataset << " into " << device << " as " << PixelFormatName(*format)
                 << " " << frame.image.cols << "x" << frame.image.rows << " at " << fps << " fps\n";
     }
+    const int64_t before_ns = MonotonicNowNs();
     if (std::string e = feeder.Write(frame.image); !e.empty()) {
       std::cerr << "monomesh feed: " << e << "\n";
       return 1;
+    }
+    if (log.is_open()) {
+      const double written_s = 0.5e-9 * static_cast<double>(before_ns + MonotonicNowNs());
+      log << written_s << " " << frame.source_time_s << std::endl;  // Whole lines if killed.
     }
     ++written;
     next += period;
@@ -75,6 +95,7 @@ Runner AddFeedCommand(CLI::App& app) {
     double fps = 30;
     bool once = false;
     int64_t count = 0;
+    std::string log;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--device", args->device, "v4l2loopback device, e.g. /dev/video10")->required();
@@ -85,9 +106,12 @@ Runner AddFeedCommand(CLI::App& app) {
   cmd->add_option("--format", args->format, "grey | yuyv")->capture_default_str();
   cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
   cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
+  cmd->add_option("--log", args->log,
+                  "Write `monotonic_time_s dataset_time_s` per frame (for monomesh eval --feed-log)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
-    return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count);
+    return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count,
+                   args->log);
   };
 }
 

@@ -1,0 +1,215 @@
+#include "app/entry_eval.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "dataset/tum.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// `monotonic_time_s dataset_time_s` lines, sorted by the first column.
+std::vector<std::pair<double, double>> ReadFeedLog(const fs::path& file, std::string* error) {
+  std::ifstream in(file);
+  if (!in) {
+    *error = "cannot read the feed log " + file.string();
+    return {};
+  }
+  std::vector<std::pair<double, double>> rows;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream s(line);
+    double mono = 0, data = 0;
+    if (!(s >> mono >> data)) {
+      *error = file.string() + ":" + std::to_string(number) +
+               ": expected 'monotonic_time_s dataset_time_s'";
+      return {};
+    }
+    rows.emplace_back(mono, data);
+  }
+  std::sort(rows.begin(), rows.end());
+  return rows;
+}
+
+// The dataset time of the fed frame written nearest to `mono_s`, if within `max_gap_s`.
+std::optional<double> MapFedTime(const std::vector<std::pair<double, double>>& log, double mono_s,
+                                 double max_gap_s) {
+  auto it = std::lower_bound(log.begin(), log.end(), std::make_pair(mono_s, -1e300));
+  std::optional<double> best;
+  double best_gap = max_gap_s;
+  for (auto c : {it, it == log.begin() ? it : std::prev(it)}) {
+    if (c == log.end()) continue;
+    const double gap = std::abs(c->first - mono_s);
+    if (gap <= best_gap) {
+      best_gap = gap;
+      best = c->second;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+std::string EntryEvalOptions::Check() const {
+  if (!fs::is_directory(spool)) return "spool folder " + spool.string() + " does not exist";
+  if (!fs::is_regular_file(dataset / "groundtruth.txt")) {
+    return "dataset " + dataset.string() + " has no groundtruth.txt";
+  }
+  if (!feed_log.empty() && !fs::is_regular_file(feed_log)) {
+    return "feed log " + feed_log.string() + " does not exist";
+  }
+  if (!(max_feed_gap_s > 0)) return "max_feed_gap_s must be > 0";
+  return {};
+}
+
+EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
+  EntryEvalResult result;
+  if (std::string problem = options.Check(); !problem.empty()) {
+    result.failure_reason = problem;
+    return result;
+  }
+  std::vector<std::pair<double, double>> feed;
+  if (!options.feed_log.empty()) {
+    feed = ReadFeedLog(options.feed_log, &result.failure_reason);
+    if (!result.failure_reason.empty()) return result;
+  }
+  std::optional<Trajectory> gt;
+  try {
+    gt = Trajectory::Read(options.dataset / "groundtruth.txt");
+  } catch (const DatasetError& e) {
+    result.failure_reason = e.what();
+    return result;
+  }
+  std::vector<fs::path> entries;
+  for (const auto& d : fs::directory_iterator(options.spool)) {
+    // Entries only: the spool's temporary folders start with '.'.
+    if (d.is_directory() && d.path().filename().string()[0] != '.' &&
+        fs::is_regular_file(d.path() / "report.json")) {
+      entries.push_back(d.path());
+    }
+  }
+  std::sort(entries.begin(), entries.end());
+  std::vector<double> rot, trans;
+  for (const fs::path& dir : entries) {
+    EntryEval e;
+    e.entry = dir.filename().string();
+    json report;
+    try {
+      std::ifstream in(dir / "report.json");
+      report = json::parse(in);
+      e.reconstructed = report.at("success").get<bool>();
+      if (!e.reconstructed) {
+        e.problem = "reconstruction failed: " + report.value("failure_reason", std::string());
+        result.entries.push_back(e);
+        continue;
+      }
+      double t[2];
+      const char* names[2] = {"a", "b"};
+      for (int k = 0; k < 2; ++k) {
+        t[k] = report.at("keyframes").at(names[k]).at("source_time_s").get<double>();
+        if (!feed.empty()) {
+          const auto mapped = MapFedTime(feed, t[k], options.max_feed_gap_s);
+          if (!mapped) throw std::runtime_error(std::string("keyframe ") + names[k] +
+                                                " matches no fed frame in the feed log");
+          t[k] = *mapped;
+        }
+      }
+      e.time_a_s = t[0];
+      e.time_b_s = t[1];
+      const auto& rj = report.at("relative_pose").at("rotation");
+      const auto& tj = report.at("relative_pose").at("translation");
+      Eigen::Matrix3d r;
+      Eigen::Vector3d tr;
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) r(i, j) = rj.at(i).at(j).get<double>();
+        tr(i) = tj.at(i).get<double>();
+      }
+      e.mesh_vertices = report.value("counts", json::object()).value("mesh_vertices", 0);
+      const auto pose_a = gt->WorldFromCamAt(e.time_a_s);
+      const auto pose_b = gt->WorldFromCamAt(e.time_b_s);
+      if (!pose_a || !pose_b) throw std::runtime_error("no ground truth at the keyframe times");
+      const Eigen::Isometry3d rel = CamBFromCamA(*pose_a, *pose_b);
+      e.rot_err_deg = RotationErrorDeg(r, rel.linear());
+      e.trans_err_deg = DirectionErrorDeg(tr, rel.translation());
+      e.baseline_m = rel.translation().norm();
+      e.gt_rotation_deg = Eigen::AngleAxisd(rel.linear()).angle() * 180.0 / M_PI;
+      e.evaluated = true;
+      rot.push_back(e.rot_err_deg);
+      trans.push_back(e.trans_err_deg);
+    } catch (const std::exception& ex) {
+      e.problem = (dir / "report.json").string() + ": " + ex.what();
+    }
+    result.entries.push_back(e);
+  }
+  result.ok = true;
+  result.evaluated = static_cast<int>(rot.size());
+  result.rot_err_median_deg = Median(rot);
+  result.trans_err_median_deg = Median(trans);
+  result.rot_err_max_deg = rot.empty() ? 0 : *std::max_element(rot.begin(), rot.end());
+  result.trans_err_max_deg = trans.empty() ? 0 : *std::max_element(trans.begin(), trans.end());
+  return result;
+}
+
+std::string FormatEntryEval(const EntryEvalResult& r) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(3);
+  for (const EntryEval& e : r.entries) {
+    s << e.entry << ": ";
+    if (!e.evaluated) {
+      s << "not evaluated (" << e.problem << ")\n";
+      continue;
+    }
+    s << "t " << e.time_a_s << " -> " << e.time_b_s << " s, baseline " << e.baseline_m
+      << " m, gt rotation " << e.gt_rotation_deg << " deg: rot err " << e.rot_err_deg
+      << " deg, trans dir err " << e.trans_err_deg << " deg, " << e.mesh_vertices
+      << " mesh vertices\n";
+  }
+  s << "entries: " << r.entries.size() << ", evaluated " << r.evaluated << "; rot err median "
+    << r.rot_err_median_deg << " max " << r.rot_err_max_deg << " deg; trans dir err median "
+    << r.trans_err_median_deg << " max " << r.trans_err_max_deg << " deg\n";
+  return s.str();
+}
+
+std::string EntryEvalToJson(const EntryEvalResult& r) {
+  json entries = json::array();
+  for (const EntryEval& e : r.entries) {
+    json j = {{"entry", e.entry}, {"reconstructed", e.reconstructed}, {"evaluated", e.evaluated}};
+    if (e.evaluated) {
+      j.update({{"time_a_s", e.time_a_s},
+                {"time_b_s", e.time_b_s},
+                {"rot_err_deg", e.rot_err_deg},
+                {"trans_err_deg", e.trans_err_deg},
+                {"baseline_m", e.baseline_m},
+                {"gt_rotation_deg", e.gt_rotation_deg},
+                {"mesh_vertices", e.mesh_vertices}});
+    } else {
+      j["problem"] = e.problem;
+    }
+    entries.push_back(j);
+  }
+  const json summary = {
+      {"entries", r.entries.size()},
+      {"evaluated", r.evaluated},
+      {"rot_err_deg", {{"median", r.rot_err_median_deg}, {"max", r.rot_err_max_deg}}},
+      {"trans_err_deg", {{"median", r.trans_err_median_deg}, {"max", r.trans_err_max_deg}}}};
+  return json({{"summary", summary}, {"entries", entries}}).dump(2) + "\n";
+}
+
+}  // namespace mm

@@ -1,0 +1,56 @@
+#pragma once
+// The daemon's own outputs against ground truth: each spool entry's report.json (relative pose
+// cam_b_from_cam_a, keyframe times) compared with a TUM-format dataset's groundtruth.txt.
+//
+// Keyframe times: with the replay camera, a keyframe's source_time_s is the dataset time. Through
+// a real device (v4l2loopback fed by `monomesh feed --log FILE`), it is the driver's
+// CLOCK_MONOTONIC timestamp; the feed log (`monotonic_time_s dataset_time_s` per written frame)
+// maps it back to the dataset frame written at that moment.
+//
+// Thread-safety: pure functions; reentrant.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace mm {
+
+struct EntryEvalOptions {
+  std::filesystem::path spool;     ///< Folder of entries (each with report.json).
+  std::filesystem::path dataset;   ///< TUM-format folder with groundtruth.txt.
+  std::filesystem::path feed_log;  ///< Optional: `monomesh feed --log` output (device path).
+  double max_feed_gap_s = 0.010;   ///< A keyframe maps to a fed frame written within this time.
+  [[nodiscard]] std::string Check() const;
+};
+
+struct EntryEval {
+  std::string entry;               ///< Folder name.
+  bool reconstructed = false;      ///< The report says the reconstruction succeeded.
+  bool evaluated = false;          ///< Ground truth found for both keyframes.
+  std::string problem;             ///< Why not evaluated (or the reconstruction's failure reason).
+  double time_a_s = 0, time_b_s = 0;  ///< Dataset times of the keyframes.
+  double rot_err_deg = 0;          ///< Angle of R_est^T R_gt.
+  double trans_err_deg = 0;        ///< Angle between the translation directions.
+  double baseline_m = 0;           ///< Ground-truth distance between the two camera centres.
+  double gt_rotation_deg = 0;      ///< Ground-truth rotation angle between the keyframes.
+  int mesh_vertices = 0;
+};
+
+struct EntryEvalResult {
+  bool ok = false;                 ///< Inputs readable (entries may still fail individually).
+  std::string failure_reason;
+  std::vector<EntryEval> entries;  ///< Sorted by entry name (= time of creation).
+  int evaluated = 0;
+  double rot_err_median_deg = 0, rot_err_max_deg = 0;
+  double trans_err_median_deg = 0, trans_err_max_deg = 0;
+};
+
+EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options);
+
+/// One line per entry and a summary, for the CLI.
+std::string FormatEntryEval(const EntryEvalResult& result);
+/// {"summary": {"entries", "evaluated", "rot_err_deg": {"median", "max"}, "trans_err_deg":
+/// {...}}, "entries": [...]}.
+std::string EntryEvalToJson(const EntryEvalResult& result);
+
+}  // namespace mm
