@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -23,45 +23,44 @@ double Median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-// `monotonic_time_s dataset_time_s` lines, sorted by the first column.
-std::vector<std::pair<double, double>> ReadFeedLog(const fs::path& file, std::string* error) {
+struct FedFrame {
+  double write_start_s = 0, write_end_s = 0, dataset_time_s = 0;
+};
+
+// `write_start_s write_end_s dataset_time_s` lines, sorted by time.
+std::vector<FedFrame> ReadFeedLog(const fs::path& file, std::string* error) {
   std::ifstream in(file);
   if (!in) {
     *error = "cannot read the feed log " + file.string();
     return {};
   }
-  std::vector<std::pair<double, double>> rows;
+  std::vector<FedFrame> rows;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream s(line);
-    double mono = 0, data = 0;
-    if (!(s >> mono >> data)) {
+    FedFrame f;
+    if (!(s >> f.write_start_s >> f.write_end_s >> f.dataset_time_s) ||
+        f.write_end_s < f.write_start_s) {
       *error = file.string() + ":" + std::to_string(number) +
-               ": expected 'monotonic_time_s dataset_time_s'";
+               ": expected 'write_start_s write_end_s dataset_time_s'";
       return {};
     }
-    rows.emplace_back(mono, data);
+    rows.push_back(f);
   }
-  std::sort(rows.begin(), rows.end());
+  std::sort(rows.begin(), rows.end(),
+            [](const FedFrame& a, const FedFrame& b) { return a.write_start_s < b.write_start_s; });
   return rows;
 }
 
-// The dataset time of the fed frame written nearest to `mono_s`, if within `max_gap_s`.
-std::optional<double> MapFedTime(const std::vector<std::pair<double, double>>& log, double mono_s,
-                                 double max_gap_s) {
-  auto it = std::lower_bound(log.begin(), log.end(), std::make_pair(mono_s, -1e300));
-  std::optional<double> best;
-  double best_gap = max_gap_s;
-  for (auto c : {it, it == log.begin() ? it : std::prev(it)}) {
-    if (c == log.end()) continue;
-    const double gap = std::abs(c->first - mono_s);
-    if (gap <= best_gap) {
-      best_gap = gap;
-      best = c->second;
-    }
-  }
-  return best;
+// The dataset time of the fed frame whose write interval (widened by `slack_s`) holds `mono_s`.
+std::optional<double> MapFedTime(const std::vector<FedFrame>& log, double mono_s, double slack_s) {
+  auto it = std::upper_bound(log.begin(), log.end(), mono_s + slack_s,
+                             [](double t, const FedFrame& f) { return t < f.write_start_s; });
+  if (it == log.begin()) return std::nullopt;
+  --it;  // The last frame whose write started before mono_s + slack.
+  if (mono_s > it->write_end_s + slack_s) return std::nullopt;
+  return it->dataset_time_s;
 }
 
 }  // namespace
@@ -74,7 +73,7 @@ std::string EntryEvalOptions::Check() const {
   if (!feed_log.empty() && !fs::is_regular_file(feed_log)) {
     return "feed log " + feed_log.string() + " does not exist";
   }
-  if (!(max_feed_gap_s > 0)) return "max_feed_gap_s must be > 0";
+  if (!(feed_slack_s >= 0)) return "feed_slack_s must be >= 0";
   return {};
 }
 
@@ -84,7 +83,7 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
     result.failure_reason = problem;
     return result;
   }
-  std::vector<std::pair<double, double>> feed;
+  std::vector<FedFrame> feed;
   if (!options.feed_log.empty()) {
     feed = ReadFeedLog(options.feed_log, &result.failure_reason);
     if (!result.failure_reason.empty()) return result;
@@ -124,9 +123,12 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
       for (int k = 0; k < 2; ++k) {
         t[k] = report.at("keyframes").at(names[k]).at("source_time_s").get<double>();
         if (!feed.empty()) {
-          const auto mapped = MapFedTime(feed, t[k], options.max_feed_gap_s);
-          if (!mapped) throw std::runtime_error(std::string("keyframe ") + names[k] +
-                                                " matches no fed frame in the feed log");
+          const auto mapped = MapFedTime(feed, t[k], options.feed_slack_s);
+          if (!mapped) {
+            throw std::runtime_error(std::string("keyframe ") + names[k] + " (device time " +
+                                     std::to_string(t[k]) +
+                                     " s) matches no fed frame in the feed log");
+          }
           t[k] = *mapped;
         }
       }

@@ -4,8 +4,9 @@
 //
 // Keyframe times: with the replay camera, a keyframe's source_time_s is the dataset time. Through
 // a real device (v4l2loopback fed by `monomesh feed --log FILE`), it is the driver's
-// CLOCK_MONOTONIC timestamp; the feed log (`monotonic_time_s dataset_time_s` per written frame)
-// maps it back to the dataset frame written at that moment.
+// CLOCK_MONOTONIC timestamp, taken while the frame is written; the feed log (`write_start_s
+// write_end_s dataset_time_s` per written frame, CLOCK_MONOTONIC) maps it back to the dataset
+// frame whose write interval holds it.
 //
 // Thread-safety: pure functions; reentrant.
 
@@ -19,7 +20,7 @@ struct EntryEvalOptions {
   std::filesystem::path spool;     ///< Folder of entries (each with report.json).
   std::filesystem::path dataset;   ///< TUM-format folder with groundtruth.txt.
   std::filesystem::path feed_log;  ///< Optional: `monomesh feed --log` output (device path).
-  double max_feed_gap_s = 0.010;   ///< A keyframe maps to a fed frame written within this time.
+  double feed_slack_s = 0.001;     ///< Slack around a fed frame's write interval.
   [[nodiscard]] std::string Check() const;
 };
 

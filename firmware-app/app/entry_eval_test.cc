@@ -80,11 +80,11 @@ TEST_F(EntryEvalTest, DatasetTimesGiveExactAndPerturbedErrors) {
 }
 
 TEST_F(EntryEvalTest, DeviceTimestampsMapThroughTheFeedLog) {
-  std::ofstream(dir_ / "feed.log") << "# monotonic_time_s dataset_time_s\n"
-                                   << "5.000000 99.966\n5.033000 100\n5.066000 100.033\n"
-                                   << "6.033000 101\n";
-  WriteEntry("e1", 5.0331, 6.0329, 0.0);  // Within 1 ms of the written frames.
-  WriteEntry("e2", 5.0500, 6.0330, 0.0);  // Keyframe A 17 ms from any written frame.
+  std::ofstream(dir_ / "feed.log") << "# write_start_s write_end_s dataset_time_s\n"
+                                   << "5.000 5.004 99.966\n5.033 5.037 100\n5.066 5.070 100.033\n"
+                                   << "6.033 6.040 101\n";
+  WriteEntry("e1", 5.0368, 6.0330, 0.0);  // Inside the write intervals of 100 and 101.
+  WriteEntry("e2", 5.0500, 6.0330, 0.0);  // Keyframe A 13 ms after any write ended.
   const EntryEvalResult r = EvaluateSpoolEntries(Options(dir_ / "spool", dir_, dir_ / "feed.log"));
   ASSERT_TRUE(r.ok) << r.failure_reason;
   ASSERT_EQ(r.entries.size(), 2u);
@@ -93,7 +93,7 @@ TEST_F(EntryEvalTest, DeviceTimestampsMapThroughTheFeedLog) {
   EXPECT_DOUBLE_EQ(r.entries[0].time_b_s, 101.0);
   EXPECT_NEAR(r.entries[0].rot_err_deg, 0.0, 1e-6);
   EXPECT_FALSE(r.entries[1].evaluated);
-  EXPECT_NE(r.entries[1].problem.find("keyframe a matches no fed frame"), std::string::npos)
+  EXPECT_NE(r.entries[1].problem.find("keyframe a (device time 5.050000 s) matches no fed frame"), std::string::npos)
       << r.entries[1].problem;
 }
 

@@ -43,7 +43,7 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
       std::cerr << "monomesh feed: cannot write the log " << log_path << "\n";
       return 1;
     }
-    log << "# monomesh feed " << dataset << " -> " << device << ": monotonic_time_s dataset_time_s\n";
+    log << "# monomesh feed " << dataset << " -> " << device << ": write_start_s write_end_s (CLOCK_MONOTONIC) dataset_time_s\n";
     log.setf(std::ios::fixed);
     log.precision(6);
   }
@@ -74,9 +74,10 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
       std::cerr << "monomesh feed: " << e << "\n";
       return 1;
     }
-    if (log.is_open()) {
-      const double written_s = 0.5e-9 * static_cast<double>(before_ns + MonotonicNowNs());
-      log << written_s << " " << frame.source_time_s << std::endl;  // Whole lines if killed.
+    if (log.is_open()) {  // The driver's timestamp lies between the two.
+      log << 1e-9 * static_cast<double>(before_ns) << " "
+          << 1e-9 * static_cast<double>(MonotonicNowNs()) << " " << frame.source_time_s
+          << std::endl;  // Whole lines if killed.
     }
     ++written;
     next += period;
@@ -107,7 +108,7 @@ Runner AddFeedCommand(CLI::App& app) {
   cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
   cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
   cmd->add_option("--log", args->log,
-                  "Write `monotonic_time_s dataset_time_s` per frame (for monomesh eval --feed-log)");
+                  "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for monomesh eval --feed-log)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count,

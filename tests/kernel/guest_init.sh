@@ -55,5 +55,42 @@ run remove --device /dev/video10 --frames /frames --remove 'rmmod v4l2loopback' 
   --add "modprobe v4l2loopback $LOOPBACK_ARGS"
 run unplug --device /dev/video0 --driver /sys/bus/platform/drivers/vivid --name vivid.0
 
+# 6. The appliance: a dataset fed into v4l2loopback by `monomesh feed` (which logs when each
+# frame went in), monomeshd reading the device as its camera, a trigger, a spool entry, and its
+# pose evaluated against the dataset's ground truth by `monomesh eval --spool`.
+appliance() {
+  read fps max_rot max_trans < /dataset/check.conf
+  d=/tmp/mm
+  mkdir -p $d/spool
+  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "/dataset/calib.toml"\n[control]\nsocket = "%s"\n[spool]\ndir = "%s"\n' \
+    $d/control.sock $d/spool > $d/monomeshd.toml
+  monomesh feed --device /dev/video10 --dataset /dataset --fps "$fps" --format yuyv \
+    --log $d/feed.log 2> $d/feed.err &
+  feeder=$!
+  for i in $(seq 50); do [ "$(wc -l < $d/feed.log 2>/dev/null)" -ge 2 ] 2>/dev/null && break; sleep 0.2; done
+  monomeshd --config $d/monomeshd.toml 2> $d/monomeshd.log &
+  daemon=$!
+  for i in $(seq 150); do monomesh ctl ping --socket $d/control.sock > /dev/null 2>&1 && break; sleep 0.2; done
+  t0=$(date +%s)
+  monomesh ctl trigger --wait 240 --socket $d/control.sock > $d/result.json 2> $d/trigger.err
+  t1=$(date +%s)
+  monomesh eval --dataset /dataset --spool $d/spool --feed-log $d/feed.log > $d/eval.txt 2>&1
+  kill $daemon $feeder 2> /dev/null
+  wait $daemon
+  summary=$(tail -n 1 $d/eval.txt)
+  line=$(grep -v '^entries' $d/eval.txt | head -n 1)
+  # "entries: 1, evaluated 1; rot err median X max Y deg; trans dir err median A max B deg"
+  verdict=$(echo "$summary" | awk -v mr="$max_rot" -v mt="$max_trans" '{
+    ev = $4 + 0; rot = $10 + 0; tr = $18 + 0;
+    print (ev >= 1 && rot <= mr && tr <= mt) ? "PASS" : "FAIL" }')
+  echo "CHECK appliance-loopback $verdict $((t1 - t0)) s from trigger to entry; $line; $summary (limits $max_rot / $max_trans deg)"
+  if [ "$verdict" != PASS ]; then
+    for f in result.json trigger.err feed.err monomeshd.log eval.txt; do
+      echo "GUEST $f:"; tail -n 15 $d/$f | sed 's/^/GUEST   /'
+    done
+  fi
+}
+appliance
+
 echo "GUEST done"
 poweroff -f

@@ -18,7 +18,11 @@ log() { echo "kernel: $* ($((SECONDS - t0)) s)"; }
 scripts/install-deps.sh kernel >/dev/null
 checks="$build/tests/tests_kernel_checks"
 prepare="$build/tests/tests_kernel_prepare"
-[ -x "$checks" ] && [ -x "$prepare" ] || { echo "kernel: build $build first (tests_kernel_checks)" >&2; exit 2; }
+daemon="$build/firmware-app/monomeshd"
+cli="$build/firmware-app/monomesh"
+for exe in "$checks" "$prepare" "$daemon" "$cli"; do
+  [ -x "$exe" ] || { echo "kernel: build $build first ($(basename "$exe") is missing)" >&2; exit 2; }
+done
 
 # The kernel version of linux-headers-amd64; image and source pinned to the same package version.
 kv="$(dpkg-query -W -f='${Depends}' linux-headers-amd64 | sed -n 's/.*linux-headers-\([0-9][^ ,]*-amd64\).*/\1/p')"
@@ -107,12 +111,15 @@ done
 cp "$mods"/*.ko "$root/lib/modules/$kv/extra/"
 depmod -b "$root" "$kv"
 cp "$checks" "$root/bin/kernel_checks"
+# The appliance itself (debug info stripped: the guest holds the initramfs in RAM).
+strip -o "$root/bin/monomeshd" "$daemon"
+strip -o "$root/bin/monomesh" "$cli"
 # libcamera's IPA modules (vimc's pipeline needs its IPA) and their configuration.
 lcdir=/usr/lib/x86_64-linux-gnu/libcamera
 mkdir -p "$root$lcdir" "$root/usr/share/libcamera"
 cp -a "$lcdir"/. "$root$lcdir/"
 cp -a /usr/share/libcamera/. "$root/usr/share/libcamera/"
-for bin in "$checks" "$lcdir"/*.so "$lcdir"/*_proxy; do
+for bin in "$checks" "$daemon" "$cli" "$lcdir"/*.so "$lcdir"/*_proxy; do
   for lib in $(ldd "$bin" | awk '/=>/ {print $3} /^\t\/lib/ {print $1}' | sort -u); do
     [ -e "$root$lib" ] && continue
     mkdir -p "$root$(dirname "$lib")"
@@ -120,15 +127,22 @@ for bin in "$checks" "$lcdir"/*.so "$lcdir"/*_proxy; do
   done
 done
 "$prepare" "$repo/data/tum_office" "$root/frames" 6 >/dev/null
+# The dataset the appliance check feeds into v4l2loopback (TUM format with ground truth).
+appliance_data="${MM_KERNEL_DATASET:-$repo/data/tum_office}"
+mkdir -p "$root/dataset"
+cp -r "$appliance_data"/rgb "$appliance_data"/rgb.txt "$appliance_data"/groundtruth.txt \
+  "$appliance_data"/calib.toml "$root/dataset/"
+echo "${MM_KERNEL_DATASET_FPS:-1} ${MM_KERNEL_MAX_ROT_ERR_DEG:-1.0} ${MM_KERNEL_MAX_TRANS_ERR_DEG:-10}" \
+  > "$root/dataset/check.conf"
 cp tests/kernel/guest_init.sh "$root/init"
 chmod +x "$root/init"
-(cd "$root" && find . | cpio -o -H newc --quiet | zstd -q -3 -T0 > "$work/initrd.zst")
+(cd "$root" && find . | cpio -o -H newc --quiet | zstd -q -1 -T0 > "$work/initrd.zst")
 log "initramfs $(du -h "$work/initrd.zst" | cut -f1)"
 
 # Boot; the guest powers off when done (panic=-1 + -no-reboot end qemu on a crash).
 out="$work/console.log"
 set +e
-timeout 300 qemu-system-x86_64 -accel tcg -cpu max -smp 1 -m 512 -nographic -no-reboot -nic none \
+timeout 420 qemu-system-x86_64 -accel tcg -cpu max -smp 1 -nographic -no-reboot -nic none -m 1536 \
   -kernel "$image/boot/vmlinuz-$kv" -initrd "$work/initrd.zst" \
   -append "console=ttyS0 quiet loglevel=3 panic=-1" > "$out" 2>&1
 qrc=$?
