@@ -200,7 +200,7 @@ std::string RandomText(cv::RNG& rng) {
   return s;
 }
 
-// Draws a material onto a w x h texel image of a rectangle `width_m` x `height_m`.
+// Paints the quad's material into a `size` texel image (texels_per_m along both edges).
 cv::Mat PaintTexture(const SceneQuad& quad, cv::Size size, double texels_per_m, cv::RNG& rng) {
   const Material m = MaterialFor(quad.kind, rng);
   const double d = texels_per_m;

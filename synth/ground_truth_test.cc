@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
@@ -289,54 +288,6 @@ INSTANTIATE_TEST_SUITE_P(Cameras, GroundTruth, ::testing::Values(false, true),
                          [](const auto& param_info) {
                            return param_info.param ? "Distorted" : "Pinhole";
                          });
-
-TEST(Synth, SameSeedWritesTheSameBytes) {
-  std::vector<std::string> runs;
-  for (int run = 0; run < 2; ++run) {
-    const Sequence s =
-        Generate("same" + std::to_string(run), DistortedCamera(), CameraPathKind::kWalk, 3, 30.0);
-    ASSERT_TRUE(s.summary.success) << s.summary.failure_reason;
-    std::string bytes;
-    for (const char* f : {"rgb.txt", "depth.txt", "groundtruth.txt", "calib.toml"}) {
-      std::ifstream in(s.options.out / f, std::ios::binary);
-      bytes += std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    }
-    for (const TumFrame& f : ReadTumList(s.options.out / "rgb.txt")) {
-      std::ifstream in(f.path, std::ios::binary);
-      bytes += std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    }
-    for (const TumFrame& f : ReadTumList(s.options.out / "depth.txt")) {
-      std::ifstream in(f.path, std::ios::binary);
-      bytes += std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    }
-    runs.push_back(bytes);
-    fs::remove_all(s.options.out);
-  }
-  EXPECT_GT(runs[0].size(), 100000u);
-  EXPECT_TRUE(runs[0] == runs[1]) << "two runs with one seed differ";
-}
-
-TEST(Synth, RotatePathHasOneCentreForwardPathOneOrientation) {
-  for (const CameraPathKind kind : {CameraPathKind::kRotate, CameraPathKind::kForward}) {
-    const Sequence s = Generate("path", DefaultSynthCamera(64, 48), kind, 30, 30.0);
-    ASSERT_TRUE(s.summary.success) << s.summary.failure_reason;
-    const Trajectory t = Trajectory::Read(s.options.out / "groundtruth.txt");
-    const Eigen::Isometry3d first = t.poses().front().world_from_cam;
-    double moved = 0, turned = 0;
-    for (const TimedPose& p : t.poses()) {
-      moved = std::max(moved, (p.world_from_cam.translation() - first.translation()).norm());
-      turned = std::max(turned, RotationErrorDeg(p.world_from_cam.linear(), first.linear()));
-    }
-    if (kind == CameraPathKind::kRotate) {
-      EXPECT_EQ(moved, 0.0);
-      EXPECT_GT(turned, 3.0);
-    } else {
-      EXPECT_LT(turned, 1e-7);
-      EXPECT_GT(moved, 0.9);
-    }
-    fs::remove_all(s.options.out);
-  }
-}
 
 }  // namespace
 }  // namespace mm

@@ -159,7 +159,7 @@ BouguetCamera ScaleCamera(const BouguetCamera& camera, int width, int height) {
   c.fc = Eigen::Vector2d(camera.fc.x() * sx, camera.fc.y() * sy);
   // Pixel centres at integers: the image's edge (-0.5) stays at the edge.
   c.cc = Eigen::Vector2d((camera.cc.x() + 0.5) * sx - 0.5, (camera.cc.y() + 0.5) * sy - 0.5);
-  c.alpha_c = camera.alpha_c * sy / sx;  // KK(0,1) = alpha_c fc1 scales with the rows.
+  // alpha_c is relative to fc1 (KK(0,1) = alpha_c fc1): unchanged.
   c.error.reset();
   c.width = width;
   c.height = height;

@@ -1,14 +1,52 @@
 // The corridor's geometry and the camera paths, without rendering.
 #include <gtest/gtest.h>
 
-#include <cmath>
+#include <unistd.h>
 
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "dataset/tum.h"
 #include "synth/camera_path.h"
 #include "synth/corridor.h"
 #include "synth/sequence.h"
 
 namespace mm {
 namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  return fs::temp_directory_path() / ("mm_synth_unit_" + name + "_" + std::to_string(::getpid()));
+}
+
+// A small sequence (1024^2 atlas, tiny frames): the writer end to end, cheap under emulation.
+struct Sequence {
+  SynthOptions options;
+  SynthSummary summary;
+};
+
+Sequence Generate(const std::string& name, const BouguetCamera& camera, CameraPathKind path,
+                  int frames, double fps) {
+  Sequence s;
+  s.options.out = TempDir(name);
+  fs::remove_all(s.options.out);
+  s.options.camera = camera;
+  s.options.frames = frames;
+  s.options.fps = fps;
+  s.options.path.kind = path;
+  s.options.corridor.atlas_size = 1024;
+  s.summary = WriteSyntheticSequence(s.options);
+  return s;
+}
+
+BouguetCamera DistortedCamera() {
+  BouguetCamera c = DefaultSynthCamera(96, 72);
+  c.alpha_c = 0.002;
+  c.kc = {-0.28, 0.11, 0.0012, -0.0009, -0.02};
+  return c;
+}
 
 CorridorOptions SmallAtlas() {
   CorridorOptions o;
@@ -136,13 +174,70 @@ TEST(SynthOptions, ChecksAndCameraScaling) {
   EXPECT_EQ(o.Check(), "");
   o.scene = "maze";
   EXPECT_NE(o.Check().find("scene"), std::string::npos);
-  const BouguetCamera c = DefaultSynthCamera(320, 240);
+  BouguetCamera c = DefaultSynthCamera(320, 240);
   EXPECT_DOUBLE_EQ(c.fc.x(), 262.5);
   EXPECT_DOUBLE_EQ(c.cc.x(), 159.5);
   EXPECT_DOUBLE_EQ(c.cc.y(), 119.5);
+  // Scaling keeps the rays: a pixel's ray at 640x480 is the scaled pixel's ray at 320x240
+  // (pixel edges stay at edges), skew and distortion included.
+  c.alpha_c = 0.003;
+  c.kc = {-0.2, 0.05, 0.001, 0.002, 0.0};
+  const BouguetCamera big = ScaleCamera(c, 640, 480);
+  const Eigen::Vector2d ray = c.Unproject(Eigen::Vector2d(100.25, 30.5));
+  const Eigen::Vector2d ray_big =
+      big.Unproject(Eigen::Vector2d((100.25 + 0.5) * 2 - 0.5, (30.5 + 0.5) * 2 - 0.5));
+  EXPECT_LT((ray - ray_big).norm(), 1e-12);
   o.scene = "l-corridor";
   o.fps = 30;
   EXPECT_DOUBLE_EQ(SynthFrameTime(o, 1), 1000.033333);
+}
+
+TEST(Synth, SameSeedWritesTheSameBytes) {
+  std::vector<std::string> runs;
+  for (int run = 0; run < 2; ++run) {
+    const Sequence s =
+        Generate("same" + std::to_string(run), DistortedCamera(), CameraPathKind::kWalk, 3, 30.0);
+    ASSERT_TRUE(s.summary.success) << s.summary.failure_reason;
+    std::string bytes;
+    for (const char* f : {"rgb.txt", "depth.txt", "groundtruth.txt", "calib.toml"}) {
+      std::ifstream in(s.options.out / f, std::ios::binary);
+      bytes += std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    }
+    for (const TumFrame& f : ReadTumList(s.options.out / "rgb.txt")) {
+      std::ifstream in(f.path, std::ios::binary);
+      bytes += std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    }
+    for (const TumFrame& f : ReadTumList(s.options.out / "depth.txt")) {
+      std::ifstream in(f.path, std::ios::binary);
+      bytes += std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    }
+    runs.push_back(bytes);
+    fs::remove_all(s.options.out);
+  }
+  EXPECT_GT(runs[0].size(), 20000u);
+  EXPECT_TRUE(runs[0] == runs[1]) << "two runs with one seed differ";
+}
+
+TEST(Synth, RotatePathHasOneCentreForwardPathOneOrientation) {
+  for (const CameraPathKind kind : {CameraPathKind::kRotate, CameraPathKind::kForward}) {
+    const Sequence s = Generate("path", DefaultSynthCamera(64, 48), kind, 30, 30.0);
+    ASSERT_TRUE(s.summary.success) << s.summary.failure_reason;
+    const Trajectory t = Trajectory::Read(s.options.out / "groundtruth.txt");
+    const Eigen::Isometry3d first = t.poses().front().world_from_cam;
+    double moved = 0, turned = 0;
+    for (const TimedPose& p : t.poses()) {
+      moved = std::max(moved, (p.world_from_cam.translation() - first.translation()).norm());
+      turned = std::max(turned, RotationErrorDeg(p.world_from_cam.linear(), first.linear()));
+    }
+    if (kind == CameraPathKind::kRotate) {
+      EXPECT_EQ(moved, 0.0);
+      EXPECT_GT(turned, 3.0);
+    } else {
+      EXPECT_LT(turned, 1e-7);
+      EXPECT_GT(moved, 0.9);
+    }
+    fs::remove_all(s.options.out);
+  }
 }
 
 }  // namespace
