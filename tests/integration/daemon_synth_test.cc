@@ -136,6 +136,7 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
     EXPECT_LT(dir_errors[k], 1.0) << "mesh " << k;
   }
   EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+  if (!HasFailure()) fs::remove_all(seq.parent_path());  // Kept for a look when it failed.
 }
 
 TEST(DaemonSynth, PureRotationNeverTakesKeyframeB) {
@@ -185,6 +186,7 @@ TEST(DaemonSynth, PureRotationNeverTakesKeyframeB) {
   // (with parallax_deg = 0.05 the gate does take B, and the recon then reports "pure rotation").
   EXPECT_LT(max_parallax, 0.15);
   EXPECT_GT(min_tracks, 40);
+  if (!HasFailure()) fs::remove_all(seq.parent_path());
 }
 
 }  // namespace
