@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
       mm::cli::AddCalibrateCommand(app),
       mm::cli::AddUndistortCommand(app),
       mm::cli::AddRenderCommand(app),
+      mm::cli::AddSynthCommand(app),
   };
   CLI11_PARSE(app, argc, argv);
   mm::SetupLogging("warn");

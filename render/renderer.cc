@@ -5,6 +5,7 @@
 #include <GLES3/gl3.h>
 
 #include <cstdio>
+#include <map>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <utility>
@@ -183,6 +184,19 @@ struct Renderer::Impl {
   GlName program;
   GLint u_projection = -1, u_cam_from_world = -1, u_texture = -1, u_textured = -1, u_far = -1;
   std::string error;
+  // Uploaded meshes (Renderer::Upload), by handle.
+  struct GpuMesh {
+    GlName vao, vbo, ebo, texture;
+    GLsizei index_count = 0;
+    bool textured = false;
+  };
+  std::map<int, GpuMesh> meshes;
+  int next_mesh_id = 0;
+  // The framebuffer of the last draw, kept while the image size stays the same.
+  struct Target {
+    GlName fbo, color, packed_depth, z_buffer;
+    int width = 0, height = 0;
+  } target;
 
   ~Impl() { MakeCurrent(); }  // The GL names below are deleted in this context.
   bool Init();
@@ -304,62 +318,30 @@ std::string Renderer::gl_renderer() const {
 RenderResult Renderer::Render(const Mesh& mesh, const cv::Mat& texture_bgr,
                               const RenderCamera& camera) {
   RenderResult out;
+  const int id = Upload(mesh, texture_bgr, UploadOptions{}, &out.failure_reason);
+  if (id < 0) return out;
+  out = Draw(id, camera);
+  Release(id);
+  return out;
+}
+
+int Renderer::Upload(const Mesh& mesh, const cv::Mat& texture_bgr, const UploadOptions& options,
+                     std::string* error) {
   if (!ok()) {
-    out.failure_reason = impl_->error;
-    return out;
+    *error = impl_->error;
+    return -1;
   }
   if (!impl_->MakeCurrent()) {
-    out.failure_reason = "EGL: cannot make the context current " +
-                         Hex(static_cast<unsigned>(eglGetError()));
-    return out;
+    *error = "EGL: cannot make the context current " + Hex(static_cast<unsigned>(eglGetError()));
+    return -1;
   }
-  if (const std::string problem = camera.Check(); !problem.empty()) {
-    out.failure_reason = "camera " + problem;
-    return out;
+  if (!texture_bgr.empty() && texture_bgr.type() != CV_8UC3) {
+    *error = "texture must be BGR8";
+    return -1;
   }
   const bool textured = !texture_bgr.empty() && mesh.uvs.size() == mesh.vertices.size();
-  if (!texture_bgr.empty() && texture_bgr.type() != CV_8UC3) {
-    out.failure_reason = "texture must be BGR8";
-    return out;
-  }
-  GLint max_size = 0;
-  glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
-  if (camera.width > max_size || camera.height > max_size) {
-    out.failure_reason = "image larger than GL_MAX_RENDERBUFFER_SIZE " + std::to_string(max_size);
-    return out;
-  }
-  const int w = camera.width, h = camera.height;
-
-  // Framebuffer: colour, packed depth, z-buffer.
-  GlName fbo = MakeFramebuffer();
-  GlName color_rb = MakeRenderbuffer();
-  GlName depth_color_rb = MakeRenderbuffer();
-  GlName depth_rb = MakeRenderbuffer();
-  glBindFramebuffer(GL_FRAMEBUFFER, fbo.get());
-  glBindRenderbuffer(GL_RENDERBUFFER, color_rb.get());
-  glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color_rb.get());
-  glBindRenderbuffer(GL_RENDERBUFFER, depth_color_rb.get());
-  glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER,
-                            depth_color_rb.get());
-  glBindRenderbuffer(GL_RENDERBUFFER, depth_rb.get());
-  glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
-  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_rb.get());
-  const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
-  if (status != GL_FRAMEBUFFER_COMPLETE) {
-    out.failure_reason = "GL: framebuffer incomplete " + Hex(status);
-    return out;
-  }
-  const GLenum draw_buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-  glDrawBuffers(2, draw_buffers);
-  glViewport(0, 0, w, h);
-  glClearColor(0, 0, 0, 0);
-  glClearDepthf(1.0f);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDisable(GL_CULL_FACE);  // The y flip of the projection mirrors the winding; draw both.
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  Impl::GpuMesh gpu;
+  gpu.textured = textured;
 
   // Vertex data: position (3), uv (2), colour (3), interleaved floats.
   std::vector<float> vertices;
@@ -378,14 +360,15 @@ RenderResult Renderer::Render(const Mesh& mesh, const cv::Mat& texture_bgr,
   for (const Eigen::Vector3i& t : mesh.triangles) {
     for (int k = 0; k < 3; ++k) indices.push_back(static_cast<GLuint>(t[k]));
   }
-  GlName vao = MakeVertexArray();
-  GlName vbo = MakeBuffer();
-  GlName ebo = MakeBuffer();
-  glBindVertexArray(vao.get());
-  glBindBuffer(GL_ARRAY_BUFFER, vbo.get());
+  gpu.index_count = static_cast<GLsizei>(indices.size());
+  gpu.vao = MakeVertexArray();
+  gpu.vbo = MakeBuffer();
+  gpu.ebo = MakeBuffer();
+  glBindVertexArray(gpu.vao.get());
+  glBindBuffer(GL_ARRAY_BUFFER, gpu.vbo.get());
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)),
                vertices.data(), GL_STATIC_DRAW);
-  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo.get());
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gpu.ebo.get());
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(GLuint)),
                indices.data(), GL_STATIC_DRAW);
   const GLsizei stride = 8 * sizeof(float);
@@ -397,23 +380,119 @@ RenderResult Renderer::Render(const Mesh& mesh, const cv::Mat& texture_bgr,
   glEnableVertexAttribArray(2);
   glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, stride,
                         reinterpret_cast<void*>(5 * sizeof(float)));
+  glBindVertexArray(0);
 
-  GlName texture;
   if (textured) {
+    GLint max_texture = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture);
+    if (texture_bgr.cols > max_texture || texture_bgr.rows > max_texture) {
+      *error = "texture larger than GL_MAX_TEXTURE_SIZE " + std::to_string(max_texture);
+      return -1;
+    }
     cv::Mat rgb;
     cv::cvtColor(texture_bgr, rgb, cv::COLOR_BGR2RGB);
-    texture = MakeTexture();
+    gpu.texture = MakeTexture();
     glActiveTexture(GL_TEXTURE0);
-    glBindTexture(GL_TEXTURE_2D, texture.get());
+    glBindTexture(GL_TEXTURE_2D, gpu.texture.get());
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, rgb.cols, rgb.rows, 0, GL_RGB, GL_UNSIGNED_BYTE,
                  rgb.data);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    if (options.mipmaps) glGenerateMipmap(GL_TEXTURE_2D);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER,
+                    options.mipmaps ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   }
+  if (const GLenum err = glGetError(); err != GL_NO_ERROR) {
+    *error = "GL error " + Hex(err) + " while uploading";
+    return -1;
+  }
+  const int id = impl_->next_mesh_id++;
+  impl_->meshes.emplace(id, std::move(gpu));
+  return id;
+}
 
+void Renderer::Release(int mesh_id) {
+  if (!impl_->MakeCurrent()) return;
+  impl_->meshes.erase(mesh_id);
+}
+
+RenderResult Renderer::Draw(int mesh_id, const RenderCamera& camera) {
+  RenderResult out;
+  if (!ok()) {
+    out.failure_reason = impl_->error;
+    return out;
+  }
+  if (!impl_->MakeCurrent()) {
+    out.failure_reason = "EGL: cannot make the context current " +
+                         Hex(static_cast<unsigned>(eglGetError()));
+    return out;
+  }
+  if (const std::string problem = camera.Check(); !problem.empty()) {
+    out.failure_reason = "camera " + problem;
+    return out;
+  }
+  const auto found = impl_->meshes.find(mesh_id);
+  if (found == impl_->meshes.end()) {
+    out.failure_reason = "no uploaded mesh " + std::to_string(mesh_id);
+    return out;
+  }
+  const Impl::GpuMesh& gpu = found->second;
+  GLint max_size = 0;
+  glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
+  if (camera.width > max_size || camera.height > max_size) {
+    out.failure_reason = "image larger than GL_MAX_RENDERBUFFER_SIZE " + std::to_string(max_size);
+    return out;
+  }
+  const int w = camera.width, h = camera.height;
+
+  // Framebuffer: colour, packed depth, z-buffer; made again only when the size changes.
+  Impl::Target& target = impl_->target;
+  if (target.width != w || target.height != h || target.fbo.get() == 0) {
+    target = Impl::Target{};
+    target.fbo = MakeFramebuffer();
+    target.color = MakeRenderbuffer();
+    target.packed_depth = MakeRenderbuffer();
+    target.z_buffer = MakeRenderbuffer();
+    glBindFramebuffer(GL_FRAMEBUFFER, target.fbo.get());
+    glBindRenderbuffer(GL_RENDERBUFFER, target.color.get());
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                              target.color.get());
+    glBindRenderbuffer(GL_RENDERBUFFER, target.packed_depth.get());
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER,
+                              target.packed_depth.get());
+    glBindRenderbuffer(GL_RENDERBUFFER, target.z_buffer.get());
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                              target.z_buffer.get());
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+      target = Impl::Target{};
+      out.failure_reason = "GL: framebuffer incomplete " + Hex(status);
+      return out;
+    }
+    target.width = w;
+    target.height = h;
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, target.fbo.get());
+  const GLenum draw_buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+  glDrawBuffers(2, draw_buffers);
+  glViewport(0, 0, w, h);
+  glClearColor(0, 0, 0, 0);
+  glClearDepthf(1.0f);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_CULL_FACE);  // The y flip of the projection mirrors the winding; draw both.
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+
+  glBindVertexArray(gpu.vao.get());
+  if (gpu.textured) {
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, gpu.texture.get());
+  }
   glUseProgram(impl_->program.get());
   const Eigen::Matrix4f projection =
       GlProjectionFromK(camera.K, w, h, camera.near_plane, camera.far_plane);
@@ -421,9 +500,9 @@ RenderResult Renderer::Render(const Mesh& mesh, const cv::Mat& texture_bgr,
   glUniformMatrix4fv(impl_->u_projection, 1, GL_FALSE, projection.data());  // Column-major.
   glUniformMatrix4fv(impl_->u_cam_from_world, 1, GL_FALSE, view.data());
   glUniform1i(impl_->u_texture, 0);
-  glUniform1i(impl_->u_textured, textured ? 1 : 0);
+  glUniform1i(impl_->u_textured, gpu.textured ? 1 : 0);
   glUniform1f(impl_->u_far, static_cast<float>(camera.far_plane));
-  glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(indices.size()), GL_UNSIGNED_INT, nullptr);
+  glDrawElements(GL_TRIANGLES, gpu.index_count, GL_UNSIGNED_INT, nullptr);
 
   cv::Mat color(h, w, CV_8UC4), packed(h, w, CV_8UC4);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
@@ -444,12 +523,14 @@ RenderResult Renderer::Render(const Mesh& mesh, const cv::Mat& texture_bgr,
   const double scale = camera.far_plane / 16777215.0;
   for (int y = 0; y < h; ++y) {
     const cv::Vec4b* row = packed.ptr<cv::Vec4b>(y);
+    float* depth_row = out.depth.ptr<float>(y);
+    uint8_t* mask_row = out.mask.ptr<uint8_t>(y);
     for (int x = 0; x < w; ++x) {
       if (row[x][3] == 0) continue;
       const uint32_t q = (static_cast<uint32_t>(row[x][0]) << 16) |
                          (static_cast<uint32_t>(row[x][1]) << 8) | row[x][2];
-      out.depth.at<float>(y, x) = static_cast<float>(q * scale);
-      out.mask.at<uint8_t>(y, x) = 255;
+      depth_row[x] = static_cast<float>(q * scale);
+      mask_row[x] = 255;
       ++out.covered_pixels;
     }
   }

@@ -41,6 +41,13 @@ struct RenderResult {
   int covered_pixels = 0;
 };
 
+struct UploadOptions {
+  /// Trilinear filtering over a mipmap chain (glGenerateMipmap, GLES 3.0) instead of bilinear:
+  /// textures seen minified (a corridor's far floor) do not alias. Off: the spool's previews
+  /// sample their keyframe texture about 1:1.
+  bool mipmaps = false;
+};
+
 class Renderer {
  public:
   /// Creates the EGL display and context. On failure, ok() is false and error() says why.
@@ -55,8 +62,18 @@ class Renderer {
   [[nodiscard]] std::string gl_renderer() const;
 
   /// Draws `mesh` (vertices in world coordinates, UVs into `texture_bgr`, v up) from `camera`.
-  /// An empty texture draws the vertex colours (or grey).
+  /// An empty texture draws the vertex colours (or grey). Upload + Draw + Release in one call.
   RenderResult Render(const Mesh& mesh, const cv::Mat& texture_bgr, const RenderCamera& camera);
+
+  /// Uploads a mesh and its texture once (vertex/index buffers, texture) for drawing from many
+  /// cameras with Draw(), e.g. a synthetic sequence. Returns a handle >= 0, or -1 with `error`
+  /// set. The mesh lives until Release() or the renderer's end.
+  int Upload(const Mesh& mesh, const cv::Mat& texture_bgr, const UploadOptions& options,
+             std::string* error);
+  /// Draws an uploaded mesh from `camera` (the framebuffer is kept between draws of one size).
+  RenderResult Draw(int mesh_id, const RenderCamera& camera);
+  /// Frees an uploaded mesh (unknown handles are ignored).
+  void Release(int mesh_id);
 
  private:
   struct Impl;

@@ -177,6 +177,48 @@ TEST_F(RendererTest, PreviewHasBothViews) {
   EXPECT_LT(oblique, cv::countNonZero(gray.colRange(0, kW)));
 }
 
+// A mesh uploaded once and drawn from many cameras (synthetic sequences): each draw equals a
+// one-shot Render from the same camera; frame sizes may change between draws; released handles
+// are refused.
+TEST_F(RendererTest, UploadedMeshDrawsLikeOneShotRenders) {
+  ASSERT_TRUE(renderer_->ok()) << renderer_->error();
+  const Eigen::Matrix3d K = TestK();
+  const Mesh mesh = Quad(K, 2.0, 20, 10, 139, 99);
+  std::string error;
+  const int id = renderer_->Upload(mesh, Texture(), UploadOptions{}, &error);
+  ASSERT_GE(id, 0) << error;
+  for (int i = 0; i < 3; ++i) {
+    RenderCamera cam;
+    cam.K = K;
+    cam.width = kW - 16 * i;  // A new framebuffer size each time.
+    cam.height = kH;
+    cam.far_plane = 10;
+    cam.cam_from_world.translation() = Eigen::Vector3d(0.05 * i, 0, 0.1 * i);
+    const RenderResult drawn = renderer_->Draw(id, cam);
+    const RenderResult once = renderer_->Render(mesh, Texture(), cam);
+    ASSERT_TRUE(drawn.success) << drawn.failure_reason;
+    EXPECT_EQ(drawn.rgb.cols, cam.width);
+    EXPECT_EQ(cv::norm(drawn.rgb, once.rgb, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(drawn.depth, once.depth, cv::NORM_INF), 0.0);
+  }
+  // Mipmaps: the same picture where the texture is seen about 1:1 (trilinear at level 0).
+  UploadOptions mip;
+  mip.mipmaps = true;
+  const int mip_id = renderer_->Upload(mesh, Texture(), mip, &error);
+  ASSERT_GE(mip_id, 0) << error;
+  RenderCamera cam;
+  cam.K = K;
+  cam.width = kW;
+  cam.height = kH;
+  const RenderResult plain = renderer_->Draw(id, cam), mipmapped = renderer_->Draw(mip_id, cam);
+  cv::Mat inner = cv::Mat::zeros(kH, kW, CV_8UC1);
+  cv::rectangle(inner, cv::Rect(22, 12, 116, 86), cv::Scalar(255), cv::FILLED);
+  EXPECT_GT(MaskedNcc(plain.rgb, mipmapped.rgb, inner), 0.97);
+  renderer_->Release(id);
+  renderer_->Release(mip_id);
+  EXPECT_FALSE(renderer_->Draw(id, cam).success);
+}
+
 // A second Renderer on the same thread (the daemon's preview next to an evaluation) takes the
 // current context and, when it goes, must neither terminate the shared display nor leave the
 // first renderer without its context.

@@ -4,6 +4,7 @@ set(rules
   "calib:capture/|app/|recon/|spool/"
   "recon:capture/|app/|spool/"
   "spool:capture/|app/|recon/|calib/"
+  "synth:capture/|app/|spool/"
   "capture:recon/|app/|spool/")
 set(failures "")
 foreach(rule IN LISTS rules)

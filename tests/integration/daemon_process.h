@@ -46,13 +46,14 @@ class DaemonProcess {
  public:
   DaemonProcess(const std::string& name, const std::string& camera_query,
                 const std::string& extra_config = "", const fs::path& camera_dir = kData,
-                const std::string& spool_keys = "") {
+                const std::string& spool_keys = "",
+                const fs::path& calibration = kData / "calib.toml") {
     dir_ = fs::temp_directory_path() / ("mm_daemon_" + name + "_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     std::ofstream(dir_ / "monomeshd.toml")
         << "[camera]\nuri = \"replay:" << camera_dir.string() << "?" << camera_query << "\"\n"
-        << "calibration = \"" << (kData / "calib.toml").string() << "\"\n"
+        << "calibration = \"" << calibration.string() << "\"\n"
         << "[control]\nsocket = \"" << socket().string() << "\"\n"
         << "[spool]\ndir = \"" << spool().string() << "\"\n"
         << spool_keys
