@@ -39,15 +39,44 @@ std::vector<cv::Point2f> Undistorter::UndistortPoints(
   return out;
 }
 
-cv::Mat Undistorter::Apply(const cv::Mat& distorted) const {
-  if (distorted.cols != input_.width || distorted.rows != input_.height) {
+namespace {
+
+void CheckSize(const cv::Mat& distorted, const BouguetCamera& input) {
+  if (distorted.cols != input.width || distorted.rows != input.height) {
     throw std::invalid_argument("Undistorter: frame is " + std::to_string(distorted.cols) + "x" +
                                 std::to_string(distorted.rows) + ", calibration is " +
-                                std::to_string(input_.width) + "x" + std::to_string(input_.height));
+                                std::to_string(input.width) + "x" + std::to_string(input.height));
   }
+}
+
+}  // namespace
+
+cv::Mat Undistorter::Apply(const cv::Mat& distorted) const {
+  CheckSize(distorted, input_);
   if (map_xy_.empty()) return distorted;
   cv::Mat out;
   cv::remap(distorted, out, map_xy_, map_frac_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  return out;
+}
+
+cv::Mat Undistorter::ApplyNearest(const cv::Mat& distorted) const {
+  CheckSize(distorted, input_);
+  if (map_xy_.empty()) return distorted;
+  // The fractional index is fy * INTER_TAB_SIZE + fx in 1/INTER_TAB_SIZE pixels: round with it.
+  cv::Mat rounded(map_xy_.size(), CV_16SC2);
+  for (int y = 0; y < map_xy_.rows; ++y) {
+    const auto* xy = map_xy_.ptr<cv::Vec2s>(y);
+    const auto* frac = map_frac_.ptr<uint16_t>(y);
+    auto* out = rounded.ptr<cv::Vec2s>(y);
+    for (int x = 0; x < map_xy_.cols; ++x) {
+      const int fx = frac[x] % cv::INTER_TAB_SIZE;
+      const int fy = frac[x] / cv::INTER_TAB_SIZE;
+      out[x] = cv::Vec2s(static_cast<int16_t>(xy[x][0] + (2 * fx >= cv::INTER_TAB_SIZE ? 1 : 0)),
+                         static_cast<int16_t>(xy[x][1] + (2 * fy >= cv::INTER_TAB_SIZE ? 1 : 0)));
+    }
+  }
+  cv::Mat out;
+  cv::remap(distorted, out, rounded, cv::Mat(), cv::INTER_NEAREST, cv::BORDER_CONSTANT);
   return out;
 }
 

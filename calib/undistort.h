@@ -21,6 +21,10 @@ class Undistorter {
   /// returned as is (no copy).
   [[nodiscard]] cv::Mat Apply(const cv::Mat& distorted) const;
 
+  /// Undistorts a map whose values must not be blended (a depth image, labels): each output
+  /// pixel takes the input pixel nearest to where it comes from (the tables rounded).
+  [[nodiscard]] cv::Mat ApplyNearest(const cv::Mat& distorted) const;
+
   /// Point undistortion for feature coordinates: pixels of the distorted frame -> pixels of
   /// output_camera() (exact iterative inverse, not the tables).
   [[nodiscard]] std::vector<cv::Point2f> UndistortPoints(

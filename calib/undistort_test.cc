@@ -45,6 +45,42 @@ TEST(Undistorter, MovesPointsToUndistortedProjection) {
       << centroid.transpose() << " vs " << expected.transpose();
 }
 
+// ApplyNearest copies values without blending: each output pixel holds the value of the input
+// pixel nearest to where the model maps it (an image of coordinates tells which pixel came).
+TEST(Undistorter, NearestTakesTheNearestInputPixel) {
+  BouguetCamera c;
+  c.fc = {265, 262};
+  c.cc = {161.3, 118.2};
+  c.alpha_c = 0.002;
+  c.kc = {-0.28, 0.11, 0.0012, -0.0009, -0.02};
+  c.width = 320;
+  c.height = 240;
+  const Undistorter u(c);
+  cv::Mat coords(240, 320, CV_32FC2);
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) coords.at<cv::Vec2f>(y, x) = cv::Vec2f(x, y);
+  }
+  const cv::Mat out = u.ApplyNearest(coords);
+  const BouguetCamera undistorted = c.Undistorted();
+  int checked = 0;
+  double worst = 0;
+  for (int v = 0; v < 240; v += 7) {
+    for (int uu = 0; uu < 320; uu += 7) {
+      const Eigen::Vector2d ray = undistorted.Unproject(Eigen::Vector2d(uu, v));
+      const Eigen::Vector2d src = c.Project(Eigen::Vector3d(ray.x(), ray.y(), 1.0));
+      if (src.x() < 1 || src.y() < 1 || src.x() > 318 || src.y() > 238) continue;
+      const cv::Vec2f got = out.at<cv::Vec2f>(v, uu);
+      // Integral: copied, not blended; and the nearest pixel (the tables hold 1/32 pixel).
+      EXPECT_EQ(got[0], std::round(got[0]));
+      EXPECT_EQ(got[1], std::round(got[1]));
+      worst = std::max({worst, std::abs(got[0] - src.x()), std::abs(got[1] - src.y())});
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+  EXPECT_LE(worst, 0.5 + 1.0 / 32 + 1e-6);
+}
+
 // Feature points go where the frame's pixels go: the undistorted point of a distorted pixel
 // projects back onto it, and matches the 3-D point's undistorted projection.
 TEST(Undistorter, UndistortPointsMatchesModel) {

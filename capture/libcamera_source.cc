@@ -218,6 +218,10 @@ void LibcameraSource::Close() {
 
 std::string LibcameraSource::Lose(const std::string& why) {
   CloseCamera();
+  // Drop our hold on the CameraManager too: without udev hotplug events (no udevd, or a
+  // pipeline that never signals disconnected) a manager keeps its stale camera list, and only
+  // a new one enumerates the camera when it comes back.
+  manager_.reset();
   recovery_.Lose();
   std::lock_guard lock(describe_mutex_);
   description_ = "libcamera:" + (id_.empty() ? options_.camera : id_) + " (lost: " + why + "; reopening)";
@@ -235,6 +239,7 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
   if (recovery_.lost()) {
     if (!recovery_.AttemptDue(deadline)) return ReadStatus::kTimeout;
     if (!OpenCamera().empty()) {
+      manager_.reset();  // Enumerate afresh on the next attempt (see Lose()).
       recovery_.AttemptFailed();
       return ReadStatus::kTimeout;
     }

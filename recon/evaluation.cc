@@ -233,9 +233,12 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     if (r.success && !depth_frames.empty()) {
       const int d = Nearest(depth_frames, p.time_a_s, options.max_depth_dt_s);
       if (d >= 0) {
-        const cv::Mat depth =
+        cv::Mat depth =
             cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
         if (depth.type() == CV_16UC1 && depth.size() == image_a.size()) {
+          // The depth image is seen through the dataset's (distorted) camera; the
+          // reconstruction through the undistorted one: bring the depth there, unblended.
+          if (undistorter) depth = undistorter->ApplyNearest(depth);
           CompareDepth(r, depth, &p);
           if (options.mesh_evaluator) {
             cv::Mat depth_m;

@@ -14,9 +14,11 @@ namespace mm::cli {
 namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
+volatile std::sig_atomic_t g_go = 0;
 
 int RunFeed(const std::string& device, const std::string& dataset, double fps,
-            const std::string& format_name, bool loop, int64_t count, const std::string& log_path) {
+            const std::string& format_name, bool loop, int64_t count, bool hold_first,
+            const std::string& log_path) {
   using Clock = std::chrono::steady_clock;
   const auto format = ParsePixelFormat(format_name);
   if (!format || (*format != PixelFormat::kGrey && *format != PixelFormat::kYuyv)) {
@@ -33,6 +35,7 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
   }
   std::signal(SIGINT, [](int) { g_stop = 1; });
   std::signal(SIGTERM, [](int) { g_stop = 1; });
+  std::signal(SIGUSR1, [](int) { g_go = 1; });
   // The feed log maps the device's timestamps (v4l2loopback stamps a frame with
   // CLOCK_MONOTONIC when it is written) back to the dataset frame: `monomesh eval --spool
   // --feed-log` evaluates the daemon's keyframes with it.
@@ -51,14 +54,18 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / fps));
   auto next = Clock::now();
   int64_t written = 0;
+  Frame frame;
   while (!g_stop && (count <= 0 || written < count)) {
-    Frame frame;
-    std::string error;
-    const ReadStatus s = replay.Read(&frame, std::chrono::milliseconds(1000), &error);
-    if (s == ReadStatus::kEndOfStream) break;
-    if (s != ReadStatus::kFrame) {
-      std::cerr << "monomesh feed: " << error << "\n";
-      return 1;
+    // --hold-first: the first frame again (a camera standing still) until SIGUSR1.
+    const bool hold = hold_first && written > 0 && !g_go;
+    if (!hold) {
+      std::string error;
+      const ReadStatus s = replay.Read(&frame, std::chrono::milliseconds(1000), &error);
+      if (s == ReadStatus::kEndOfStream) break;
+      if (s != ReadStatus::kFrame) {
+        std::cerr << "monomesh feed: " << error << "\n";
+        return 1;
+      }
     }
     if (written == 0) {
       if (std::string e = feeder.Open(device, frame.image.cols, frame.image.rows, *format, fps);
@@ -95,6 +102,7 @@ Runner AddFeedCommand(CLI::App& app) {
     std::string device, dataset, format = "yuyv";
     double fps = 30;
     bool once = false;
+    bool hold_first = false;
     int64_t count = 0;
     std::string log;
   };
@@ -107,12 +115,14 @@ Runner AddFeedCommand(CLI::App& app) {
   cmd->add_option("--format", args->format, "grey | yuyv")->capture_default_str();
   cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
   cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
+  cmd->add_flag("--hold-first", args->hold_first,
+                "Repeat the first frame (a camera standing still) until SIGUSR1, then play on");
   cmd->add_option("--log", args->log,
                   "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for monomesh eval --feed-log)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count,
-                   args->log);
+                   args->hold_first, args->log);
   };
 }
 

@@ -1,6 +1,7 @@
 #!/bin/busybox sh
 # /init of the qemu guest of tests/kernel/run.sh: loads the drivers, runs the checks in order
-# (v4l2loopback and vivid, gpio-sim, vimc via libcamera, loss, removal and recovery), prints one CHECK line each, powers off.
+# (v4l2loopback and vivid, gpio-sim, vimc via libcamera and its removal, loss, removal and
+# recovery), prints one CHECK line each, powers off.
 /bin/busybox --install -s /bin
 export PATH=/bin
 mount -t proc proc /proc
@@ -43,11 +44,21 @@ fi
 # 4. vimc through libcamera (no udevd: write the udev database entries libcamera looks for).
 load vimc
 sleep 1
+cat > /bin/udevdb <<'UDEVDB'
+#!/bin/sh
 mkdir -p /run/udev/data
 for d in /sys/bus/media/devices/* /sys/class/video4linux/*; do
   [ -f "$d/dev" ] && echo "I:1" > "/run/udev/data/c$(cat "$d/dev")"
 done
+exit 0
+UDEVDB
+chmod +x /bin/udevdb
+udevdb
 LIBCAMERA_LOG_LEVELS='*:ERROR' run libcamera --camera 'platform/vimc.0 Sensor B'
+# The camera removed (vimc unbound) while streaming and added again: recovered in-process.
+vimc=/sys/bus/platform/drivers/vimc
+LIBCAMERA_LOG_LEVELS='*:FATAL' run libcamera-unplug --camera 'platform/vimc.0 Sensor B' \
+  --remove "echo vimc.0 > $vimc/unbind" --add "echo vimc.0 > $vimc/bind && sleep 2 && udevdb"
 
 # 5. Removal while streaming and recovery without a restart.
 run stall --device /dev/video10 --frames /frames
@@ -57,26 +68,32 @@ run unplug --device /dev/video0 --driver /sys/bus/platform/drivers/vivid --name 
 
 # 6. The appliance: a dataset fed into v4l2loopback by `monomesh feed` (which logs when each
 # frame went in), monomeshd reading the device as its camera, a trigger, a spool entry, and its
-# pose evaluated against the dataset's ground truth by `monomesh eval --spool`.
+# pose evaluated against the dataset's ground truth by `monomesh eval --spool`. The feeder holds
+# the first frame (the robot standing still) until the daemon has been triggered, then walks.
 appliance() {
-  read fps max_rot max_trans < /dataset/check.conf
+  read fps max_rot max_trans parallax < /dataset/check.conf
   d=/tmp/mm
   mkdir -p $d/spool
-  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "/dataset/calib.toml"\n[control]\nsocket = "%s"\n[spool]\ndir = "%s"\n' \
-    $d/control.sock $d/spool > $d/monomeshd.toml
-  monomesh feed --device /dev/video10 --dataset /dataset --fps "$fps" --format yuyv \
-    --log $d/feed.log 2> $d/feed.err &
+  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "/dataset/calib.toml"\n[control]\nsocket = "%s"\n[keyframes]\nparallax_deg = %s\n[spool]\ndir = "%s"\n' \
+    $d/control.sock "$parallax" $d/spool > $d/monomeshd.toml
+  monomesh feed --device /dev/video10 --dataset /dataset --fps "$fps" --format yuyv --once \
+    --hold-first --log $d/feed.log 2> $d/feed.err &
   feeder=$!
   for i in $(seq 50); do [ "$(wc -l < $d/feed.log 2>/dev/null)" -ge 2 ] 2>/dev/null && break; sleep 0.2; done
   monomeshd --config $d/monomeshd.toml 2> $d/monomeshd.log &
   daemon=$!
   for i in $(seq 150); do monomesh ctl ping --socket $d/control.sock > /dev/null 2>&1 && break; sleep 0.2; done
   t0=$(date +%s)
-  monomesh ctl trigger --wait 240 --socket $d/control.sock > $d/result.json 2> $d/trigger.err
+  monomesh ctl trigger --wait 240 --socket $d/control.sock > $d/result.json 2> $d/trigger.err &
+  trigger=$!
+  sleep 1
+  kill -USR1 $feeder
+  wait $trigger
   t1=$(date +%s)
   monomesh eval --dataset /dataset --spool $d/spool --feed-log $d/feed.log > $d/eval.txt 2>&1
   kill $daemon $feeder 2> /dev/null
   wait $daemon
+  wait $feeder
   summary=$(tail -n 1 $d/eval.txt)
   line=$(grep -v '^entries' $d/eval.txt | head -n 1)
   # "entries: 1, evaluated 1; rot err median X max Y deg; trans dir err median A max B deg"
