@@ -119,7 +119,12 @@ lcdir=/usr/lib/x86_64-linux-gnu/libcamera
 mkdir -p "$root$lcdir" "$root/usr/share/libcamera"
 cp -a "$lcdir"/. "$root$lcdir/"
 cp -a /usr/share/libcamera/. "$root/usr/share/libcamera/"
-for bin in "$checks" "$daemon" "$cli" "$lcdir"/*.so "$lcdir"/*_proxy; do
+# udevd (a multi-call udevadm), no rules: it keeps the udev database and sends the events
+# libcamera's device enumerator watches for hotplug.
+mkdir -p "$root/lib/systemd" "$root/etc/udev"
+cp /bin/udevadm "$root/bin/udevadm"
+ln -s /bin/udevadm "$root/lib/systemd/systemd-udevd"
+for bin in "$checks" "$daemon" "$cli" "$lcdir"/*.so "$lcdir"/*_proxy /bin/udevadm; do
   for lib in $(ldd "$bin" | awk '/=>/ {print $3} /^\t\/lib/ {print $1}' | sort -u); do
     [ -e "$root$lib" ] && continue
     mkdir -p "$root$(dirname "$lib")"
