@@ -110,7 +110,84 @@ int RequiredIterations(double inlier_share, int sample_size, double confidence, 
 using FitFn = std::function<std::optional<Eigen::Matrix3d>(std::span<const int>)>;
 using ErrorFn = std::function<void(const Eigen::Matrix3d&, std::vector<double>*)>;
 
-// Generic RANSAC with the MSAC score (Torr & Zisserman 2000): sum of min(e, t^2).
+// MSAC score (Torr & Zisserman 2000): sum of min(e, t^2); `count` receives the inliers.
+double MsacScore(const std::vector<double>& err, double threshold_sq, int* count) {
+  double score = 0;
+  int c = 0;
+  for (double e : err) {
+    if (e < threshold_sq) {
+      score += e;
+      ++c;
+    } else {
+      score += threshold_sq;
+    }
+  }
+  *count = c;
+  return score;
+}
+
+// LO-RANSAC's local optimization of `model` (see RansacOptions): least-squares fits on its
+// inliers and on random subsets of them, each iterated with a shrinking threshold. Returns
+// true and updates model / score / count when a fit scores better.
+bool LocalOptimize(size_t n, int sample_size, double threshold_sq, const RansacOptions& o,
+                   const FitFn& fit, const ErrorFn& errors, std::mt19937* rng,
+                   std::vector<double>* err, Eigen::Matrix3d* model, double* score,
+                   int* count) {
+  errors(*model, err);
+  std::vector<int> inliers;
+  for (size_t i = 0; i < n; ++i) {
+    if ((*err)[i] < threshold_sq) inliers.push_back(static_cast<int>(i));
+  }
+  const auto m = static_cast<size_t>(sample_size);
+  if (inliers.size() <= m) return false;
+  // Inner samples: 7 m points (or half the inliers), as in LO+.
+  const size_t inner_size = std::min(inliers.size() / 2, 7 * m);
+  bool improved = false;
+  std::vector<int> subset, current;
+  for (int inner = 0; inner <= o.lo_inner_samples; ++inner) {
+    if (inner == 0) {
+      subset = inliers;
+    } else {
+      if (inner_size <= m) break;
+      subset = inliers;
+      for (size_t k = 0; k < inner_size; ++k) {  // Partial Fisher-Yates shuffle.
+        std::uniform_int_distribution<size_t> pick(k, subset.size() - 1);
+        std::swap(subset[k], subset[pick(*rng)]);
+      }
+      subset.resize(inner_size);
+    }
+    std::optional<Eigen::Matrix3d> fitted = fit(subset);
+    if (!fitted) continue;
+    for (int step = 0; step < o.lo_steps; ++step) {
+      const double mult =
+          o.lo_steps > 1 ? o.lo_threshold_multiplier -
+                               (o.lo_threshold_multiplier - 1.0) * step / (o.lo_steps - 1)
+                         : 1.0;
+      errors(*fitted, err);
+      current.clear();
+      const double t2 = mult * mult * threshold_sq;
+      for (size_t i = 0; i < n; ++i) {
+        if ((*err)[i] < t2) current.push_back(static_cast<int>(i));
+      }
+      if (current.size() <= m) break;
+      std::optional<Eigen::Matrix3d> next = fit(current);
+      if (!next) break;
+      fitted = next;
+    }
+    errors(*fitted, err);
+    int c = 0;
+    const double s = MsacScore(*err, threshold_sq, &c);
+    if (s < *score) {
+      *score = s;
+      *model = *fitted;
+      *count = c;
+      improved = true;
+    }
+  }
+  return improved;
+}
+
+// Generic RANSAC with the MSAC score, adaptive N, optional LO.
 RansacResult RunRansac(size_t n, int sample_size, double threshold_sq, const RansacOptions& o,
                        const FitFn& fit, const ErrorFn& errors) {
   RansacResult result;
@@ -119,6 +196,7 @@ RansacResult RunRansac(size_t n, int sample_size, double threshold_sq, const Ran
     return result;
   }
   std::mt19937 rng(o.seed);
+  std::mt19937 lo_rng(o.seed ^ 0x9e3779b9u);  // LO draws do not shift the main samples.
   std::uniform_int_distribution<int> pick(0, static_cast<int>(n) - 1);
   std::vector<int> sample(static_cast<size_t>(sample_size));
   std::vector<double> err(n);
@@ -138,19 +216,19 @@ RansacResult RunRansac(size_t n, int sample_size, double threshold_sq, const Ran
     const std::optional<Eigen::Matrix3d> model = fit(sample);
     if (!model) continue;
     errors(*model, &err);
-    double score = 0;
     int count = 0;
-    for (double e : err) {
-      if (e < threshold_sq) {
-        score += e;
-        ++count;
-      } else {
-        score += threshold_sq;
-      }
-    }
+    double score = MsacScore(err, threshold_sq, &count);
     if (score < best_score) {
+      Eigen::Matrix3d best = *model;
+      if (o.local_optimization) {
+        ++result.local_optimizations;
+        if (LocalOptimize(n, sample_size, threshold_sq, o, fit, errors, &lo_rng, &err, &best,
+                          &score, &count)) {
+          ++result.local_improvements;
+        }
+      }
       best_score = score;
-      result.model = *model;
+      result.model = best;
       result.num_inliers_minimal = count;
       found = true;
       required = RequiredIterations(static_cast<double>(count) / static_cast<double>(n),
@@ -197,6 +275,9 @@ std::string RansacOptions::Check() const {
     return "min_iterations: must be in [0, max_iterations]";
   }
   if (refine_iterations < 0) return "refine_iterations: must be >= 0";
+  if (lo_inner_samples < 0) return "lo_inner_samples: must be >= 0";
+  if (lo_steps < 1) return "lo_steps: must be >= 1";
+  if (!(lo_threshold_multiplier >= 1)) return "lo_threshold_multiplier: must be >= 1";
   return {};
 }
 

@@ -46,6 +46,16 @@ struct RansacOptions {
   int min_iterations = 50;        ///< Never fewer samples (guards a lucky early sample).
   unsigned seed = 0;              ///< std::mt19937 seed: runs are deterministic.
   int refine_iterations = 20;     ///< LM iterations of the refinement on the inliers (0: none).
+  /// LO-RANSAC (Chum, Matas & Kittler, DAGM 2003; the "LO+" variant of Lebeda et al. 2012):
+  /// every time a sample gives a new best model, its inliers are refitted by least squares
+  /// (the 8-point / DLT fit on all of them and on `lo_inner_samples` random subsets of them),
+  /// each fit refined by `lo_steps` rounds of least squares on its inliers with the threshold
+  /// shrinking from lo_threshold_multiplier * t to t; the best MSAC score wins. The adaptive
+  /// stop then uses the optimized model's inlier count.
+  bool local_optimization = false;
+  int lo_inner_samples = 4;       ///< Random non-minimal subsets of the inliers per run.
+  int lo_steps = 4;               ///< Iterated least-squares rounds per fit.
+  double lo_threshold_multiplier = 3.0;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -56,7 +66,9 @@ struct RansacResult {
   std::vector<int> inliers;       ///< Indices under the final (refined) model.
   int iterations = 0;             ///< Samples drawn.
   int required_iterations = 0;    ///< Adaptive N at the end (H&Z alg. 4.5).
-  int num_inliers_minimal = 0;    ///< Inliers of the best minimal-sample model.
+  int num_inliers_minimal = 0;    ///< Inliers of the best sample's model (after LO if on).
+  int local_optimizations = 0;    ///< LO runs (new best samples) and those that improved it.
+  int local_improvements = 0;
   double inlier_rms_px = 0.0;     ///< RMS distance of the inliers under the final model.
 };
 

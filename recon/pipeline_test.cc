@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "calib/calib_io.h"
 #include "dataset/tum.h"
@@ -13,6 +14,45 @@ namespace mm {
 namespace {
 
 const std::filesystem::path kData = std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office";
+
+// ExtractSift's resize paths (first_octave >= 0, resize_factor < 1) map keypoints back to the
+// original pixels: Gaussian blobs at known sub-pixel centres are found within a pixel.
+TEST(ExtractSift, ResizedPathsMapKeypointsBack) {
+  cv::Mat image(480, 640, CV_32F, cv::Scalar(0));
+  std::vector<cv::Point2f> centres;
+  for (int gy = 0; gy < 4; ++gy) {
+    for (int gx = 0; gx < 5; ++gx) {
+      const cv::Point2f c(70.3f + 120.0f * static_cast<float>(gx),
+                          60.7f + 115.0f * static_cast<float>(gy));
+      centres.push_back(c);
+      for (int y = -25; y <= 25; ++y) {
+        for (int x = -25; x <= 25; ++x) {
+          const int px = static_cast<int>(c.x) + x, py = static_cast<int>(c.y) + y;
+          const float dx = static_cast<float>(px) - c.x, dy = static_cast<float>(py) - c.y;
+          image.at<float>(py, px) += 200.0f * std::exp(-(dx * dx + dy * dy) / (2 * 5.0f * 5.0f));
+        }
+      }
+    }
+  }
+  cv::Mat gray;
+  image.convertTo(gray, CV_8U);
+  for (const auto& [first_octave, resize] :
+       {std::pair{-1, 1.0}, std::pair{-1, 0.75}, std::pair{0, 1.0}}) {
+    SiftOptions o;
+    o.first_octave = first_octave;
+    o.resize_factor = resize;
+    const Features f = ExtractSift(gray, o);
+    int found = 0;
+    for (const cv::Point2f& c : centres) {
+      double best = 1e9;
+      for (const cv::KeyPoint& k : f.keypoints) best = std::min(best, cv::norm(k.pt - c));
+      // Measured 0.3-0.7 px from the blob centres; a wrong mapping is pixels off.
+      found += best < 1.0 ? 1 : 0;
+    }
+    EXPECT_EQ(found, static_cast<int>(centres.size()))
+        << "first_octave " << first_octave << " resize " << resize;
+  }
+}
 
 TEST(ReconstructPair, TumKeyframePairMatchesGroundTruth) {
   const BouguetCamera camera = LoadCalibration(kData / "calib.toml");

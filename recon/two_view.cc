@@ -153,6 +153,7 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   ransac.confidence = options.ransac_confidence;
   ransac.max_iterations = options.max_ransac_iterations;
   ransac.seed = options.seed;
+  ransac.local_optimization = options.lo_ransac;
   auto start = Clock::now();
   result.ransac_f = RansacFundamental(pixels_a, pixels_b, ransac);
   result.times.ransac_f_s = SecondsSince(start);
@@ -160,6 +161,7 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   start = Clock::now();
   ransac.seed = options.seed + 1;
   ransac.refine_iterations = 0;
+  ransac.local_optimization = false;
   ransac.threshold_px = options.classify.homography_threshold_px;
   // H only serves the classification, which needs H to explain > 85 % of the points: such an
   // H is found in ~15 samples (H&Z alg. 4.5), so 200 suffice.

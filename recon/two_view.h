@@ -24,6 +24,9 @@ struct TwoViewOptions {
   double ransac_confidence = 0.9999; ///< Adaptive stop (H&Z alg. 4.5).
   int max_ransac_iterations = 10000;
   unsigned seed = 0;                 ///< RNG seed: runs are deterministic.
+  /// LO-RANSAC for F (RansacOptions::local_optimization): a new best sample's model is
+  /// refitted on its inliers before it is scored.
+  bool lo_ransac = false;
   int min_inliers = 30;              ///< Fewer inliers / points: the pair fails.
   double max_reprojection_error_px = 4.0;  ///< Drop triangulated points above (before BA).
   double max_reprojection_error_after_ba_px = 2.0;  ///< Drop points above this after BA.

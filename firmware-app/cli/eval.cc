@@ -27,6 +27,10 @@ struct EvalArgs {
   double contrast = EvalOptions{}.pair.sift.contrast_threshold;
   double ransac_px = EvalOptions{}.pair.two_view.ransac_threshold_px;
   double huber_px = EvalOptions{}.pair.two_view.bundle.huber_px;
+  int octave_layers = EvalOptions{}.pair.sift.octave_layers;
+  double resize = EvalOptions{}.pair.sift.resize_factor;
+  unsigned seed = EvalOptions{}.pair.two_view.seed;
+  bool lo_ransac = EvalOptions{}.pair.two_view.lo_ransac;
   bool quiet = false;
 };
 
@@ -66,6 +70,10 @@ int RunEval(const EvalArgs& args) {
   options.pair.sift.contrast_threshold = args.contrast;
   options.pair.two_view.ransac_threshold_px = args.ransac_px;
   options.pair.two_view.bundle.huber_px = args.huber_px;
+  options.pair.sift.octave_layers = args.octave_layers;
+  options.pair.sift.resize_factor = args.resize;
+  options.pair.two_view.seed = args.seed;
+  options.pair.two_view.lo_ransac = args.lo_ransac;
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
@@ -127,6 +135,10 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--contrast", args->contrast, "SIFT contrast threshold");
   cmd->add_option("--ransac-px", args->ransac_px, "RANSAC inlier threshold (Sampson, px)");
   cmd->add_option("--huber-px", args->huber_px, "Bundle adjustment Huber scale (px)");
+  cmd->add_option("--octave-layers", args->octave_layers, "SIFT scales per octave");
+  cmd->add_option("--sift-resize", args->resize, "Resize keyframes by this factor before SIFT");
+  cmd->add_option("--seed", args->seed, "RANSAC seed");
+  cmd->add_option("--lo-ransac", args->lo_ransac, "LO-RANSAC for F (true / false)");
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
