@@ -126,18 +126,23 @@ double MsacScore(const std::vector<double>& err, double threshold_sq, int* count
   return score;
 }
 
-// LO-RANSAC's local optimization of `model` (see RansacOptions): least-squares fits on its
-// inliers and on random subsets of them, each iterated with a shrinking threshold. Returns
-// true and updates model / score / count when a fit scores better.
-bool LocalOptimize(size_t n, int sample_size, double threshold_sq, const RansacOptions& o,
-                   const FitFn& fit, const ErrorFn& errors, std::mt19937* rng,
-                   std::vector<double>* err, Eigen::Matrix3d* model, double* score,
-                   int* count) {
-  errors(*model, err);
-  std::vector<int> inliers;
-  for (size_t i = 0; i < n; ++i) {
-    if ((*err)[i] < threshold_sq) inliers.push_back(static_cast<int>(i));
+// Indices of the errors below `threshold_sq`.
+void IndicesBelow(const std::vector<double>& err, double threshold_sq, std::vector<int>* out) {
+  out->clear();
+  for (size_t i = 0; i < err.size(); ++i) {
+    if (err[i] < threshold_sq) out->push_back(static_cast<int>(i));
   }
+}
+
+// LO-RANSAC's local optimization of `model` (see RansacOptions): least-squares fits on its
+// inliers and on random subsets of them, each iterated with a shrinking threshold. `err` holds
+// the model's errors on entry (it is overwritten). Returns true and updates model / score /
+// count when a fit scores better.
+bool LocalOptimize(int sample_size, double threshold_sq, const RansacOptions& o, const FitFn& fit,
+                   const ErrorFn& errors, std::mt19937* rng, std::vector<double>* err,
+                   Eigen::Matrix3d* model, double* score, int* count) {
+  std::vector<int> inliers;
+  IndicesBelow(*err, threshold_sq, &inliers);
   const auto m = static_cast<size_t>(sample_size);
   if (inliers.size() <= m) return false;
   // Inner samples: 7 m points (or half the inliers), as in LO+.
@@ -164,11 +169,7 @@ bool LocalOptimize(size_t n, int sample_size, double threshold_sq, const RansacO
                                (o.lo_threshold_multiplier - 1.0) * step / (o.lo_steps - 1)
                          : 1.0;
       errors(*fitted, err);
-      current.clear();
-      const double t2 = mult * mult * threshold_sq;
-      for (size_t i = 0; i < n; ++i) {
-        if ((*err)[i] < t2) current.push_back(static_cast<int>(i));
-      }
+      IndicesBelow(*err, mult * mult * threshold_sq, &current);
       if (current.size() <= m) break;
       std::optional<Eigen::Matrix3d> next = fit(current);
       if (!next) break;
@@ -222,8 +223,8 @@ RansacResult RunRansac(size_t n, int sample_size, double threshold_sq, const Ran
       Eigen::Matrix3d best = *model;
       if (o.local_optimization) {
         ++result.local_optimizations;
-        if (LocalOptimize(n, sample_size, threshold_sq, o, fit, errors, &lo_rng, &err, &best,
-                          &score, &count)) {
+        if (LocalOptimize(sample_size, threshold_sq, o, fit, errors, &lo_rng, &err, &best, &score,
+                          &count)) {
           ++result.local_improvements;
         }
       }

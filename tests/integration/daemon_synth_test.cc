@@ -12,11 +12,9 @@
 namespace mm::test {
 namespace {
 
-// A wide-angle board camera at 320x240 (barrel distortion, a little skew): the frames are
-// distorted with it, so the daemon's undistortion runs on every frame.
-const char* const kDistortedCalib =
-    "[camera]\nimage_size = [320, 240]\nfc = [265.0, 262.0]\ncc = [161.3, 118.2]\n"
-    "alpha_c = 0.002\nkc = [-0.28, 0.11, 0.0012, -0.0009, -0.02]\n";
+// The distorted 320x240 board camera (shared with the kernel stage): the frames are distorted
+// with it, so the daemon's undistortion runs on every frame.
+const fs::path kBoardCamera = fs::path(MM_SOURCE_DIR) / "tests/support/board_camera.toml";
 
 std::string RunCommand(const std::string& command, int* status) {
   std::string out;
@@ -38,12 +36,11 @@ fs::path Synthesize(const std::string& name, const std::string& path, int frames
       fs::temp_directory_path() / ("mm_synth_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  std::ofstream(dir / "camera.toml") << kDistortedCalib;
   int status = 0;
   const std::string out =
       RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +
                      " --frames " + std::to_string(frames) + " --fps 30 --calib " +
-                     (dir / "camera.toml").string() + " --seed 3 --path " + path,
+                     kBoardCamera.string() + " --seed 3 --path " + path,
                  &status);
   EXPECT_EQ(status, 0) << out;
   std::cout << out;

@@ -145,7 +145,7 @@ else
   # 150 frames: 5 s and 5 m of walking. Parallax 1.5 deg as in tests/integration/daemon_synth_test
   # (the default 0.3 deg of the gate is too little triangulation angle when walking forward).
   "$cli" synth --scene l-corridor --out "$appliance_data" --frames 150 --fps 30 \
-    --calib tests/kernel/board_camera.toml --seed 1 --path walk >/dev/null
+    --calib tests/support/board_camera.toml --seed 1 --path walk >/dev/null
   conf="30 ${MM_KERNEL_MAX_ROT_ERR_DEG:-0.5} ${MM_KERNEL_MAX_TRANS_ERR_DEG:-3} 1.5"
   log "corridor generated"
 fi
