@@ -1,46 +1,161 @@
 #include "capture/libcamera_source.h"
 
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
 #include <sys/mman.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
-#include <charconv>
-#include <libcamera/libcamera.h>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
 #include <thread>
+
+#include "capture/libcamera_ipc.h"
+
+extern char** environ;
 
 namespace mm {
 namespace {
 
-// libcamera allows one CameraManager per process: shared by every source and lister.
-std::shared_ptr<libcamera::CameraManager> SharedManager(std::string* error) {
-  static std::mutex mutex;
-  static std::weak_ptr<libcamera::CameraManager> weak;
-  std::lock_guard lock(mutex);
-  if (auto m = weak.lock()) return m;
-  auto m = std::make_shared<libcamera::CameraManager>();
-  if (const int r = m->start(); r != 0) {
-    if (error) *error = "libcamera: CameraManager::start: " + std::string(strerror(-r));
-    return nullptr;
-  }
-  weak = m;
-  return m;
+using Clock = std::chrono::steady_clock;
+using lcipc::MsgType;
+
+// Largest message the worker sends.
+union WorkerMessage {
+  MsgType type;
+  lcipc::Configured configured;
+  lcipc::FrameReady frame;
+  lcipc::Text text;
+};
+
+int RemainingMs(Clock::time_point deadline) {
+  const auto ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+  return ms > 0 ? static_cast<int>(ms) : 0;
 }
 
-std::optional<PixelFormat> FromLibcamera(const libcamera::PixelFormat& f) {
-  if (f == libcamera::formats::YUYV) return PixelFormat::kYuyv;
-  if (f == libcamera::formats::NV12) return PixelFormat::kNv12;
-  if (f == libcamera::formats::R8) return PixelFormat::kGrey;
-  if (f == libcamera::formats::MJPEG) return PixelFormat::kMjpeg;
-  if (f == libcamera::formats::RGB888) return PixelFormat::kBgr24;  // DRM order: bytes B,G,R.
-  if (f == libcamera::formats::BGR888) return PixelFormat::kRgb24;
-  return std::nullopt;
+/// Waits for one worker message until `deadline`: > 0 its size, 0 EOF, -1 error, -2 timeout.
+long ReceiveBefore(int socket, Clock::time_point deadline, WorkerMessage* m,
+                   std::vector<UniqueFd>* fds) {
+  pollfd p{socket, POLLIN, 0};
+  int r = 0;
+  do {
+    r = poll(&p, 1, RemainingMs(deadline));
+  } while (r < 0 && errno == EINTR);
+  if (r == 0) return -2;
+  if (r < 0) return -1;
+  return lcipc::Receive(socket, m, sizeof(*m), fds);
+}
+
+/// A connected socket pair for a worker (both ends close-on-exec; Spawn dup2s the child's).
+std::string SocketPair(UniqueFd* parent, UniqueFd* child) {
+  int sv[2];
+  if (socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) != 0) {
+    return std::string("socketpair: ") + strerror(errno);
+  }
+  parent->reset(sv[0]);
+  child->reset(sv[1]);
+  return {};
+}
+
+std::string Ended(int status) {
+  if (WIFEXITED(status)) return "exited " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) {
+    const int s = WTERMSIG(status);
+    return "killed by signal " + std::to_string(s) + " (" + strsignal(s) + ")";
+  }
+  return "ended (status " + std::to_string(status) + ")";
 }
 
 }  // namespace
 
+std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, int socket) {
+  Kill();
+  // dup2 onto the same number would keep close-on-exec: move the socket out of the way first.
+  UniqueFd moved;
+  if (socket == lcipc::kSocketFd) {
+    moved.reset(fcntl(socket, F_DUPFD_CLOEXEC, 10));
+    socket = moved.get();
+  }
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, socket, lcipc::kSocketFd);
+  // An optional command prefix (an emulator, a debugger): "qemu-aarch64-static -L /sysroot".
+  std::vector<std::string> command;
+  if (const char* launcher = std::getenv("MM_LIBCAMERA_WORKER_LAUNCHER"); launcher && *launcher) {
+    std::istringstream words(launcher);
+    for (std::string w; words >> w;) command.push_back(w);
+  }
+  command.insert(command.end(), argv.begin(), argv.end());
+  std::vector<char*> args;
+  for (const std::string& a : command) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  const int r = posix_spawn(&pid, command[0].c_str(), &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (r != 0) return "cannot start " + command[0] + ": " + strerror(r);
+  pid_ = pid;
+  return {};
+}
+
+std::string WorkerProcess::Reap(std::chrono::milliseconds timeout) {
+  if (pid_ < 0) return "not running";
+  const auto deadline = Clock::now() + timeout;
+  int status = 0;
+  pid_t r = 0;
+  while ((r = waitpid(pid_, &status, WNOHANG)) == 0 && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (r == 0) {
+    kill(pid_, SIGKILL);
+    while ((r = waitpid(pid_, &status, 0)) < 0 && errno == EINTR) {
+    }
+  }
+  pid_ = -1;
+  return r < 0 ? std::string("lost (waitpid: ") + strerror(errno) + ")" : Ended(status);
+}
+
+std::string LibcameraWorkerPath() {
+  namespace fs = std::filesystem;
+  const char* name = "mm-libcamera-worker";
+  if (const char* env = std::getenv("MM_LIBCAMERA_WORKER"); env && *env) return env;
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec && fs::exists(self.parent_path() / name, ec)) return self.parent_path() / name;
+  if (fs::exists(MM_LIBCAMERA_WORKER_INSTALLED, ec)) return MM_LIBCAMERA_WORKER_INSTALLED;
+  if (fs::exists(MM_LIBCAMERA_WORKER_BUILT, ec)) return MM_LIBCAMERA_WORKER_BUILT;
+  return MM_LIBCAMERA_WORKER_INSTALLED;
+}
+
 std::vector<std::string> ListLibcameraCameras(std::string* error) {
   std::vector<std::string> ids;
-  auto m = SharedManager(error);
-  if (!m) return ids;
-  for (const auto& c : m->cameras()) ids.push_back(c->id());
+  UniqueFd socket, child;
+  std::string e = SocketPair(&socket, &child);
+  WorkerProcess worker;
+  if (e.empty()) e = worker.Spawn({LibcameraWorkerPath(), "--list"}, child.get());
+  child.reset();
+  if (!e.empty()) {
+    if (error) *error = "libcamera: " + e;
+    return ids;
+  }
+  WorkerMessage m{};
+  const long n = ReceiveBefore(socket.get(), Clock::now() + std::chrono::seconds(20), &m, nullptr);
+  if (n > 0 && m.type == MsgType::kCameras) {
+    std::istringstream lines(m.text.text);
+    for (std::string id; std::getline(lines, id);) {
+      if (!id.empty()) ids.push_back(id);
+    }
+  } else if (error) {
+    *error = "libcamera: " + (n > 0 && m.type == MsgType::kError
+                                  ? std::string(m.text.text)
+                                  : "worker " + worker.Reap(std::chrono::seconds(1)));
+  }
+  worker.Reap(std::chrono::seconds(2));
   return ids;
 }
 
@@ -61,176 +176,98 @@ std::string LibcameraSource::Open() {
 }
 
 std::string LibcameraSource::OpenCamera() {
-  const std::string where = "libcamera " + options_.camera + ": ";
-  std::string error;
-  manager_ = SharedManager(&error);
-  if (!manager_) return where + error;
-  const auto cameras = manager_->cameras();
-  std::string listed;
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    listed += (i ? ", " : "") + std::to_string(i) + "='" + cameras[i]->id() + "'";
-  }
-  if (listed.empty()) listed = "none";
   const std::string& want = id_.empty() ? options_.camera : id_;
-  camera_ = manager_->get(want);
-  size_t index = 0;
-  const auto r = std::from_chars(want.data(), want.data() + want.size(), index);
-  if (!camera_ && r.ec == std::errc() && r.ptr == want.data() + want.size() && index < cameras.size()) {
-    camera_ = cameras[index];
+  const std::string where = "libcamera " + want + ": ";
+  const std::string path = options_.worker.empty() ? LibcameraWorkerPath() : options_.worker;
+  std::vector<std::string> argv = {path, "--camera", want};
+  if (options_.width > 0) {
+    argv.insert(argv.end(), {"--width", std::to_string(options_.width), "--height",
+                             std::to_string(options_.height)});
   }
-  if (!camera_) return where + "no such camera (libcamera lists: " + listed + ")";
-  id_ = camera_->id();
-  if (camera_->acquire() != 0) {
-    camera_.reset();
-    return where + "camera busy (acquired by another process)";
+  if (options_.format) argv.insert(argv.end(), {"--format", PixelFormatName(*options_.format)});
+  UniqueFd child;
+  std::string e = SocketPair(&socket_, &child);
+  if (e.empty()) e = worker_.Spawn(argv, child.get());
+  child.reset();
+  if (!e.empty()) {
+    socket_.reset();
+    return where + e;
   }
-  acquired_ = true;
-  camera_->disconnected.connect(this, &LibcameraSource::OnDisconnected);
-  std::unique_ptr<libcamera::CameraConfiguration> config =
-      camera_->generateConfiguration({libcamera::StreamRole::Viewfinder});
-  if (!config || config->empty()) {
-    CloseCamera();
-    return where + "no viewfinder configuration";
+  WorkerMessage m{};
+  std::vector<UniqueFd> fds;
+  const long n = ReceiveBefore(
+      socket_.get(), Clock::now() + std::chrono::milliseconds(options_.open_timeout_ms), &m, &fds);
+  if (n <= 0 || m.type != MsgType::kConfigured) {
+    std::string why;
+    if (n == -2) {
+      why = "the camera worker did not configure the camera within " +
+            std::to_string(options_.open_timeout_ms) + " ms";
+    } else if (n > 0 && m.type == MsgType::kError) {
+      why = m.text.text;
+    } else {
+      why = "the camera worker " + worker_.Reap(std::chrono::seconds(1)) + " (" + path + ")";
+    }
+    CloseCamera(false);
+    return where + why;
   }
-  libcamera::StreamConfiguration& sc = config->at(0);
-  std::string offered;
-  std::optional<libcamera::PixelFormat> chosen;
-  for (const libcamera::PixelFormat& f : sc.formats().pixelformats()) {
-    offered += (offered.empty() ? "" : " ") + f.toString();
-    const auto ours = FromLibcamera(f);
-    if (!ours) continue;
-    if (options_.format ? *ours == *options_.format : !chosen) chosen = f;
+  const lcipc::Configured& c = m.configured;
+  if (fds.size() != c.buffers || c.buffers == 0) {
+    CloseCamera(false);
+    return where + "the camera worker passed " + std::to_string(fds.size()) +
+           " buffers, announced " + std::to_string(c.buffers);
   }
-  if (!chosen && FromLibcamera(sc.pixelFormat) && !options_.format) chosen = sc.pixelFormat;
-  if (!chosen) {
-    CloseCamera();
-    return where + (options_.format ? "format " + PixelFormatName(*options_.format) + " not offered"
-                                    : std::string("no format this build converts")) +
-           "; the stream offers: " + offered;
-  }
-  sc.pixelFormat = *chosen;
-  if (options_.width > 0) sc.size = libcamera::Size(options_.width, options_.height);
-  sc.bufferCount = std::max(sc.bufferCount, 4u);
-  const auto status = config->validate();
-  if (status == libcamera::CameraConfiguration::Invalid) {
-    CloseCamera();
-    return where + "configuration invalid; the stream offers: " + offered;
-  }
-  if (sc.pixelFormat != *chosen ||
-      (options_.width > 0 && (static_cast<int>(sc.size.width) != options_.width ||
-                              static_cast<int>(sc.size.height) != options_.height))) {
-    const std::string got = sc.toString();
-    CloseCamera();
-    return where + "asked for " + chosen->toString() + " " + std::to_string(options_.width) + "x" +
-           std::to_string(options_.height) + ", the pipeline adjusted it to " + got +
-           "; the stream offers: " + offered;
-  }
-  if (camera_->configure(config.get()) != 0) {
-    CloseCamera();
-    return where + "Camera::configure failed";
-  }
-  stream_ = sc.stream();
-  format_ = *FromLibcamera(sc.pixelFormat);
-  width_ = static_cast<int>(sc.size.width);
-  height_ = static_cast<int>(sc.size.height);
-  stride_ = sc.stride;
-  allocator_ = std::make_unique<libcamera::FrameBufferAllocator>(camera_);
-  if (allocator_->allocate(stream_) < 0) {
-    CloseCamera();
-    return where + "cannot allocate buffers";
-  }
-  for (const auto& buffer : allocator_->buffers(stream_)) {
-    // Planes share one dmabuf: map it once, from the first plane's offset 0.
-    size_t length = 0;
-    for (const auto& plane : buffer->planes()) length = std::max<size_t>(length, plane.offset + plane.length);
-    void* addr = mmap(nullptr, length, PROT_READ, MAP_SHARED, buffer->planes()[0].fd.get(), 0);
+  for (size_t i = 0; i < fds.size(); ++i) {
+    void* addr = mmap(nullptr, c.length[i], PROT_READ, MAP_SHARED, fds[i].get(), 0);
     if (addr == MAP_FAILED) {
-      CloseCamera();
-      return where + "mmap of a frame buffer failed";
+      const std::string why = strerror(errno);
+      CloseCamera(false);
+      return where + "mmap of frame buffer " + std::to_string(i) + " failed: " + why;
     }
-    mappings_.push_back({addr, length});
-    std::unique_ptr<libcamera::Request> request = camera_->createRequest(mappings_.size() - 1);
-    if (!request || request->addBuffer(stream_, buffer.get()) != 0) {
-      CloseCamera();
-      return where + "cannot create a request";
-    }
-    requests_.push_back(std::move(request));
+    mappings_.push_back({addr, c.length[i], c.offset[i]});
   }
-  camera_->requestCompleted.connect(this, &LibcameraSource::OnRequestCompleted);
-  if (camera_->start() != 0) {
-    CloseCamera();
-    return where + "Camera::start failed";
-  }
-  started_ = true;
-  for (auto& request : requests_) camera_->queueRequest(request.get());
+  id_ = c.id;
+  format_ = static_cast<PixelFormat>(c.format);
+  width_ = c.width;
+  height_ = c.height;
+  stride_ = c.stride;
   recovery_.FrameArrived();  // The silence clock starts with the stream.
   std::lock_guard lock(describe_mutex_);
-  description_ = "libcamera:" + id_ + " " + sc.toString() + " -> " + (options_.gray ? "GRAY8" : "BGR8");
+  description_ = "libcamera:" + id_ + " " + c.description + " -> " +
+                 (options_.gray ? "GRAY8" : "BGR8") + " (worker pid " +
+                 std::to_string(worker_.pid()) + ")";
   return {};
 }
 
-void LibcameraSource::OnRequestCompleted(libcamera::Request* request) {
-  if (request->status() == libcamera::Request::RequestCancelled) return;
-  {
-    std::lock_guard lock(mutex_);
-    completed_.push_back(request);
+void LibcameraSource::CloseCamera(bool stop) {
+  if (socket_.valid() && stop) {
+    lcipc::Command c{MsgType::kStop, 0};
+    lcipc::Send(socket_.get(), &c, sizeof(c));
   }
-  cv_.notify_all();
-}
-
-void LibcameraSource::OnDisconnected() {
-  {
-    std::lock_guard lock(mutex_);
-    disconnected_ = true;
-  }
-  cv_.notify_all();
-}
-
-void LibcameraSource::CloseCamera() {
-  if (camera_) {
-    if (started_) camera_->stop();
-    camera_->requestCompleted.disconnect(this);
-    camera_->disconnected.disconnect(this);
-  }
-  started_ = false;
-  {
-    std::lock_guard lock(mutex_);
-    completed_.clear();
-    disconnected_ = false;
-  }
-  requests_.clear();
+  worker_.Reap(stop ? std::chrono::milliseconds(2000) : std::chrono::milliseconds(0));
+  socket_.reset();
   for (const Mapping& m : mappings_) munmap(m.addr, m.length);
   mappings_.clear();
-  if (allocator_ && stream_) allocator_->free(stream_);
-  allocator_.reset();
-  stream_ = nullptr;
-  if (camera_ && acquired_) camera_->release();
-  acquired_ = false;
-  camera_.reset();
 }
 
 void LibcameraSource::Close() {
-  CloseCamera();
-  manager_.reset();
+  CloseCamera(true);
   opened_ = false;
   recovery_.Reset();
 }
 
 std::string LibcameraSource::Lose(const std::string& why) {
-  CloseCamera();
-  // Drop our hold on the CameraManager too: without udev hotplug events (no udevd, or a
-  // pipeline that never signals disconnected) a manager keeps its stale camera list, and only
-  // a new one enumerates the camera when it comes back.
-  manager_.reset();
+  // SIGKILL: stopping a camera whose device is gone aborts inside libcamera 0.0.3 anyway.
+  CloseCamera(false);
   recovery_.Lose();
   std::lock_guard lock(describe_mutex_);
-  description_ = "libcamera:" + (id_.empty() ? options_.camera : id_) + " (lost: " + why + "; reopening)";
+  description_ =
+      "libcamera:" + (id_.empty() ? options_.camera : id_) + " (lost: " + why + "; reopening)";
   return "libcamera " + (id_.empty() ? options_.camera : id_) + ": camera lost (" + why +
          "); reopening with back-off";
 }
 
-ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout, std::string* error) {
-  using Clock = std::chrono::steady_clock;
+ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout,
+                                 std::string* error) {
   const auto deadline = Clock::now() + timeout;
   if (!opened_) {
     if (error) *error = "libcamera " + options_.camera + ": Read() before Open()";
@@ -238,60 +275,55 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
   }
   if (recovery_.lost()) {
     if (!recovery_.AttemptDue(deadline)) return ReadStatus::kTimeout;
-    if (!OpenCamera().empty()) {
-      manager_.reset();  // Enumerate afresh on the next attempt (see Lose()).
+    if (const std::string e = OpenCamera(); !e.empty()) {
       recovery_.AttemptFailed();
+      std::lock_guard lock(describe_mutex_);
+      description_ = "libcamera:" + (id_.empty() ? options_.camera : id_) +
+                     " (lost; reopen failed: " + e + ")";
       return ReadStatus::kTimeout;
     }
     recovery_.AttemptSucceeded();
   }
-  libcamera::Request* request = nullptr;
-  {
-    std::unique_lock lock(mutex_);
-    cv_.wait_until(lock, deadline, [&] { return !completed_.empty() || disconnected_; });
-    if (disconnected_) {
-      lock.unlock();
-      const std::string e = Lose("disconnected");
-      if (error) *error = e;
-      return ReadStatus::kError;
-    }
-    if (completed_.empty()) {
-      lock.unlock();
-      if (recovery_.Silent()) {
-        const std::string e = Lose("no frame for " + std::to_string(options_.lost_after_ms) + " ms");
-        if (error) *error = e;
-        return ReadStatus::kError;
-      }
-      return ReadStatus::kTimeout;
-    }
-    request = completed_.front();
-    completed_.pop_front();
+  WorkerMessage m{};
+  const long n = ReceiveBefore(socket_.get(), deadline, &m, nullptr);
+  std::string lost;
+  if (n == -2) {
+    if (!recovery_.Silent()) return ReadStatus::kTimeout;
+    lost = "no frame for " + std::to_string(options_.lost_after_ms) + " ms";
+  } else if (n <= 0) {
+    lost = "camera worker " + worker_.Reap(std::chrono::milliseconds(500));
+  } else if (m.type == MsgType::kDisconnected) {
+    lost = "disconnected";
+  } else if (m.type != MsgType::kFrame || m.frame.index >= mappings_.size()) {
+    lost = "unexpected message from the camera worker";
+  }
+  if (!lost.empty()) {
+    const std::string e = Lose(lost);
+    if (error) *error = e;
+    return ReadStatus::kError;
   }
   recovery_.FrameArrived();
-  libcamera::FrameBuffer* buffer = request->findBuffer(stream_);
-  const libcamera::FrameMetadata& md = buffer->metadata();
-  const Mapping& m = mappings_.at(request->cookie());
-  const auto* data = static_cast<const uint8_t*>(m.addr) + buffer->planes()[0].offset;
-  size_t used = 0;
-  for (const auto& p : md.planes()) used += p.bytesused;
+  const lcipc::FrameReady& f = m.frame;
+  const Mapping& map = mappings_[f.index];
+  const auto* data = static_cast<const uint8_t*>(map.addr) + map.offset;
   std::string convert_error;
-  const bool ok = md.status == libcamera::FrameMetadata::FrameSuccess;
-  if (ok) {
-    const size_t size = m.length - buffer->planes()[0].offset;
+  if (f.ok) {
+    const size_t size = map.length - map.offset;
     convert_error = format_ == PixelFormat::kMjpeg
-                        ? decoder_.Decode(data, used, options_.gray, &frame->image)
-                        : ConvertRaw(format_, data, size, width_, height_, stride_, options_.gray, &frame->image);
+                        ? decoder_.Decode(data, f.bytesused, options_.gray, &frame->image)
+                        : ConvertRaw(format_, data, size, width_, height_, stride_, options_.gray,
+                                     &frame->image);
   }
-  const uint64_t driver_ns = md.timestamp;
-  request->reuse(libcamera::Request::ReuseBuffers);
-  camera_->queueRequest(request);
-  if (!ok) return ReadStatus::kTimeout;
+  // The buffer goes back to the worker; a dead worker shows at the next Read.
+  lcipc::Command requeue{MsgType::kRequeue, f.index};
+  lcipc::Send(socket_.get(), &requeue, sizeof(requeue));
+  if (!f.ok) return ReadStatus::kTimeout;
   if (!convert_error.empty()) {
     if (error) *error = "libcamera " + id_ + ": " + convert_error;
     return ReadStatus::kError;
   }
-  frame->capture_time_ns = driver_ns ? static_cast<int64_t>(driver_ns) : MonotonicNowNs();
-  frame->source_time_s = static_cast<double>(driver_ns) * 1e-9;
+  frame->capture_time_ns = f.timestamp_ns ? static_cast<int64_t>(f.timestamp_ns) : MonotonicNowNs();
+  frame->source_time_s = static_cast<double>(f.timestamp_ns) * 1e-9;
   frame->sequence = sequence_++;
   frame->source_id = id_;
   return ReadStatus::kFrame;

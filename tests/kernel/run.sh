@@ -20,7 +20,8 @@ checks="$build/tests/tests_kernel_checks"
 prepare="$build/tests/tests_kernel_prepare"
 daemon="$build/firmware-app/monomeshd"
 cli="$build/firmware-app/monomesh"
-for exe in "$checks" "$prepare" "$daemon" "$cli"; do
+worker="$build/capture/mm-libcamera-worker"
+for exe in "$checks" "$prepare" "$daemon" "$cli" "$worker"; do
   [ -x "$exe" ] || { echo "kernel: build $build first ($(basename "$exe") is missing)" >&2; exit 2; }
 done
 
@@ -114,6 +115,8 @@ cp "$checks" "$root/bin/kernel_checks"
 # The appliance itself (debug info stripped: the guest holds the initramfs in RAM).
 strip -o "$root/bin/monomeshd" "$daemon"
 strip -o "$root/bin/monomesh" "$cli"
+# libcamera runs in this worker, found next to the program that starts it.
+strip -o "$root/bin/mm-libcamera-worker" "$worker"
 # libcamera's IPA modules (vimc's pipeline needs its IPA) and their configuration.
 lcdir=/usr/lib/x86_64-linux-gnu/libcamera
 mkdir -p "$root$lcdir" "$root/usr/share/libcamera"
@@ -124,7 +127,7 @@ cp -a /usr/share/libcamera/. "$root/usr/share/libcamera/"
 mkdir -p "$root/lib/systemd" "$root/etc/udev"
 cp /bin/udevadm "$root/bin/udevadm"
 ln -s /bin/udevadm "$root/lib/systemd/systemd-udevd"
-for bin in "$checks" "$daemon" "$cli" "$lcdir"/*.so "$lcdir"/*_proxy /bin/udevadm; do
+for bin in "$checks" "$daemon" "$cli" "$worker" "$lcdir"/*.so "$lcdir"/*_proxy /bin/udevadm; do
   for lib in $(ldd "$bin" | awk '/=>/ {print $3} /^\t\/lib/ {print $1}' | sort -u); do
     [ -e "$root$lib" ] && continue
     mkdir -p "$root$(dirname "$lib")"
