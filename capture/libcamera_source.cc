@@ -82,6 +82,8 @@ std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, int socke
     moved.reset(fcntl(socket, F_DUPFD_CLOEXEC, 10));
     socket = moved.get();
   }
+  // Checked here: a failed exec is not reported by posix_spawn everywhere (qemu-user: exit 127).
+  if (access(argv[0].c_str(), X_OK) != 0) return "cannot start " + argv[0] + ": " + strerror(errno);
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, socket, lcipc::kSocketFd);
