@@ -97,8 +97,23 @@ std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, int socke
   std::vector<char*> args;
   for (const std::string& a : command) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  // The daemon blocks the signals it reads through signalfd; the worker starts with none blocked,
+  // default handlers, and its own process group (a terminal's ^C is for the daemon, which then
+  // stops the worker).
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none, defaults;
+  sigemptyset(&none);
+  sigemptyset(&defaults);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGUSR2, SIGCHLD}) sigaddset(&defaults, sig);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setsigdefault(&attr, &defaults);
+  posix_spawnattr_setpgroup(&attr, 0);
+  posix_spawnattr_setflags(&attr,
+                           POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
   pid_t pid = -1;
-  const int r = posix_spawn(&pid, command[0].c_str(), &actions, nullptr, args.data(), environ);
+  const int r = posix_spawn(&pid, command[0].c_str(), &actions, &attr, args.data(), environ);
+  posix_spawnattr_destroy(&attr);
   posix_spawn_file_actions_destroy(&actions);
   if (r != 0) return "cannot start " + command[0] + ": " + strerror(r);
   pid_ = pid;
