@@ -44,9 +44,10 @@ struct OctaveKeypoint {
 
 // 2x upsampling by bilinear interpolation with pixel centres aligned (OpenCV's INTER_LINEAR:
 // dst x = 2i -> src i - 0.25, 2i + 1 -> src i + 0.25), edges replicated.
-Plane Upsample2(const cv::Mat& gray) {
+void Upsample2(const cv::Mat& gray, Plane* out_plane) {
   const int w = gray.cols, h = gray.rows;
-  Plane out(2 * w, 2 * h);
+  out_plane->Resize(2 * w, 2 * h);
+  Plane& out = *out_plane;
   std::vector<float> vert(static_cast<size_t>(w));
   for (int Y = 0; Y < 2 * h; ++Y) {
     const int i = Y / 2;
@@ -61,29 +62,36 @@ Plane Upsample2(const cv::Mat& gray) {
       o[2 * x + 1] = 0.75f * c + 0.25f * vert[static_cast<size_t>(std::min(x + 1, w - 1))];
     }
   }
-  return out;
 }
 
-Plane ToPlane(const cv::Mat& gray) {
-  Plane out(gray.cols, gray.rows);
+void ToPlane(const cv::Mat& gray, Plane* out) {
+  out->Resize(gray.cols, gray.rows);
   for (int y = 0; y < gray.rows; ++y) {
     const uint8_t* s = gray.ptr<uint8_t>(y);
-    float* d = out.Row(y);
+    float* d = out->Row(y);
     for (int x = 0; x < gray.cols; ++x) d[x] = s[x];
   }
-  return out;
 }
 
 // Every other pixel (OpenCV's INTER_NEAREST halving): the next octave's first layer.
-Plane Decimate(const Plane& src) {
-  Plane out(src.w / 2, src.h / 2);
-  for (int y = 0; y < out.h; ++y) {
+void Decimate(const Plane& src, Plane* out) {
+  out->Resize(src.w / 2, src.h / 2);
+  for (int y = 0; y < out->h; ++y) {
     const float* s = src.Row(2 * y);
-    float* d = out.Row(y);
-    for (int x = 0; x < out.w; ++x) d[x] = s[2 * x];
+    float* d = out->Row(y);
+    for (int x = 0; x < out->w; ++x) d[x] = s[2 * x];
   }
-  return out;
 }
+
+// Buffers kept per thread between calls: the pyramid of a 640x480 image with its doubled first
+// octave is ~100 MB, and faulting it in afresh for every image cost ~15 % of the time.
+struct Workspace {
+  Plane input, base;
+  std::vector<Plane> gauss, dog;
+  std::vector<std::vector<Plane>> mags, oris;
+  std::vector<int> candidates;
+  DescriptorSamples samples;
+};
 
 // Solves A x = b (3x3, symmetric) by Gaussian elimination with partial pivoting.
 bool Solve3(std::array<std::array<double, 3>, 3> a, std::array<double, 3> b,
@@ -198,7 +206,7 @@ void AssignOrientations(const Plane& mag, const Plane& ori, const OctaveKeypoint
     const float* orow = ori.Row(y);
     const int x0 = std::max(1, kp.c - rr), x1 = std::min(mag.w - 2, kp.c + rr);
     for (int x = x0; x <= x1; ++x) {
-      int bin = static_cast<int>(std::lrint(orow[x] * (kOriBins / 360.0f)));
+      int bin = static_cast<int>(orow[x] * (kOriBins / 360.0f) + 0.5f);
       if (bin >= kOriBins) bin -= kOriBins;
       hist[bin] += wi * wgt[static_cast<size_t>(std::abs(x - kp.c))] * mrow[x];
     }
@@ -256,34 +264,34 @@ void Describe(const Plane& mag, const Plane& ori, const OctaveKeypoint& kp,
                                                       static_cast<double>(mag.h) * mag.h)));
   CollectDescriptorSamples(mag, ori, win, samples);
 
-  std::array<float, (d + 2) * (d + 2) * (n + 2)> hist{};
+  // Four interleaved histograms: consecutive samples mostly hit the same bins, and one
+  // histogram would chain every update through store-to-load forwarding.
+  constexpr size_t kHist = (d + 2) * (d + 2) * (n + 2);
+  static_assert(kHist == 360, "6 x 6 x 10 cells, as CollectDescriptorSamples indexes them");
+  std::array<float, 4 * kHist> hists{};
   for (size_t k = 0; k < samples->n; ++k) {
-    float rbin = samples->rbin[k], cbin = samples->cbin[k], obin = samples->obin[k];
-    const float m = samples->mag[k];
-    const int r0 = static_cast<int>(std::floor(rbin));
-    const int c0 = static_cast<int>(std::floor(cbin));
-    int o0 = static_cast<int>(std::floor(obin));
-    rbin -= static_cast<float>(r0);
-    cbin -= static_cast<float>(c0);
-    obin -= static_cast<float>(o0);
-    if (o0 < 0) o0 += n;
-    if (o0 >= n) o0 -= n;
-    const float v_r1 = m * rbin, v_r0 = m - v_r1;
-    const float v_rc11 = v_r1 * cbin, v_rc10 = v_r1 - v_rc11;
-    const float v_rc01 = v_r0 * cbin, v_rc00 = v_r0 - v_rc01;
-    const float v_rco111 = v_rc11 * obin, v_rco110 = v_rc11 - v_rco111;
-    const float v_rco101 = v_rc10 * obin, v_rco100 = v_rc10 - v_rco101;
-    const float v_rco011 = v_rc01 * obin, v_rco010 = v_rc01 - v_rco011;
-    const float v_rco001 = v_rc00 * obin, v_rco000 = v_rc00 - v_rco001;
-    const size_t idx = static_cast<size_t>(((r0 + 1) * (d + 2) + c0 + 1) * (n + 2) + o0);
-    hist[idx] += v_rco000;
-    hist[idx + 1] += v_rco001;
-    hist[idx + (n + 2)] += v_rco010;
-    hist[idx + (n + 3)] += v_rco011;
-    hist[idx + (d + 2) * (n + 2)] += v_rco100;
-    hist[idx + (d + 2) * (n + 2) + 1] += v_rco101;
-    hist[idx + (d + 3) * (n + 2)] += v_rco110;
-    hist[idx + (d + 3) * (n + 2) + 1] += v_rco111;
+    const float m = samples->mag[k], fr = samples->rfrac[k], fc = samples->cfrac[k],
+                fo = samples->ofrac[k];
+    float* h = hists.data() + (k & 3) * kHist + samples->bin[k];
+    const float v_r1 = m * fr, v_r0 = m - v_r1;
+    const float v_rc11 = v_r1 * fc, v_rc10 = v_r1 - v_rc11;
+    const float v_rc01 = v_r0 * fc, v_rc00 = v_r0 - v_rc01;
+    const float v_rco111 = v_rc11 * fo, v_rco110 = v_rc11 - v_rco111;
+    const float v_rco101 = v_rc10 * fo, v_rco100 = v_rc10 - v_rco101;
+    const float v_rco011 = v_rc01 * fo, v_rco010 = v_rc01 - v_rco011;
+    const float v_rco001 = v_rc00 * fo, v_rco000 = v_rc00 - v_rco001;
+    h[0] += v_rco000;
+    h[1] += v_rco001;
+    h[n + 2] += v_rco010;
+    h[n + 3] += v_rco011;
+    h[(d + 2) * (n + 2)] += v_rco100;
+    h[(d + 2) * (n + 2) + 1] += v_rco101;
+    h[(d + 3) * (n + 2)] += v_rco110;
+    h[(d + 3) * (n + 2) + 1] += v_rco111;
+  }
+  std::array<float, kHist> hist;
+  for (size_t i = 0; i < kHist; ++i) {
+    hist[i] = (hists[i] + hists[kHist + i]) + (hists[2 * kHist + i] + hists[3 * kHist + i]);
   }
   float raw[d * d * n];
   for (int i = 0; i < d; ++i) {
@@ -322,25 +330,22 @@ Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
   }
   // First octave (Lowe 2004 Sec. 3.3): -1 doubles the image (assumed blur 2 x 0.5), k >= 1
   // averages 2^k x 2^k blocks. The base is then blurred to sigma.
-  Plane base;
+  thread_local Workspace ws;
   float init_sigma = kInitSigma;
   if (first < 0) {
-    base = Upsample2(gray);
+    Upsample2(gray, &ws.input);
     init_sigma = 2 * kInitSigma;
   } else if (first == 0) {
-    base = ToPlane(gray);
+    ToPlane(gray, &ws.input);
   } else {
     cv::Mat small;
     const double f = std::ldexp(1.0, -first);
     cv::resize(gray, small, cv::Size(), f, f, cv::INTER_AREA);
-    base = ToPlane(small);
+    ToPlane(small, &ws.input);
   }
-  {
-    Plane blurred;
-    const double sig_diff = std::sqrt(std::max(kSigma * kSigma - init_sigma * init_sigma, 0.01));
-    Blur(base, GaussianHalfKernel(sig_diff), &blurred);
-    base = std::move(blurred);
-  }
+  const double sig_diff = std::sqrt(std::max(kSigma * kSigma - init_sigma * init_sigma, 0.01));
+  Blur(ws.input, GaussianHalfKernel(sig_diff), &ws.base);
+  const Plane& base = ws.base;
   // Incremental blurs: layer i = layer i-1 convolved with sqrt(s_i^2 - s_{i-1}^2), s_i =
   // sigma k^i, k = 2^(1/layers) (the smallest kernels that reach each scale).
   std::vector<std::vector<float>> kernels(static_cast<size_t>(layers + 3));
@@ -358,33 +363,40 @@ Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
   const float prefilter =
       static_cast<float>(std::floor(0.5 * options.contrast_threshold / layers * 255));
 
-  std::vector<Plane> gauss(static_cast<size_t>(layers + 3));
-  std::vector<Plane> dog(static_cast<size_t>(layers + 2));
+  std::vector<Plane>& gauss = ws.gauss;
+  std::vector<Plane>& dog = ws.dog;
+  gauss.resize(static_cast<size_t>(layers + 3));
+  dog.resize(static_cast<size_t>(layers + 2));
   // Gradient maps of the layers that hold keypoints, per octave and layer.
-  std::vector<std::vector<Plane>> mags(static_cast<size_t>(octaves)),
-      oris(static_cast<size_t>(octaves));
+  auto& mags = ws.mags;
+  auto& oris = ws.oris;
+  if (mags.size() < static_cast<size_t>(octaves)) {
+    mags.resize(static_cast<size_t>(octaves));
+    oris.resize(static_cast<size_t>(octaves));
+  }
+  std::vector<std::vector<char>> have_grad(static_cast<size_t>(octaves),
+                                           std::vector<char>(static_cast<size_t>(layers + 1), 0));
   std::vector<OctaveKeypoint> keypoints;
-  std::vector<int> candidates;
+  std::vector<int>& candidates = ws.candidates;
   for (int o = 0; o < octaves; ++o) {
-    if (o == 0) {
-      gauss[0] = std::move(base);
-    } else {
-      gauss[0] = Decimate(gauss[static_cast<size_t>(layers)]);
+    // Layer 0 of octave o > 0 is layer `layers` of octave o - 1 (twice its sigma) halved; it
+    // goes through gauss[layers + 2], which is rewritten below.
+    const Plane* g0 = &base;
+    if (o > 0) {
+      Decimate(gauss[static_cast<size_t>(layers)], &gauss[static_cast<size_t>(layers + 2)]);
+      std::swap(gauss[0], gauss[static_cast<size_t>(layers + 2)]);
+      g0 = &gauss[0];
     }
-    if (gauss[0].w <= 2 * kBorder + 2 || gauss[0].h <= 2 * kBorder + 2) break;
+    if (g0->w <= 2 * kBorder + 2 || g0->h <= 2 * kBorder + 2) break;
     for (int i = 1; i < layers + 3; ++i) {
-      Blur(gauss[static_cast<size_t>(i - 1)], kernels[static_cast<size_t>(i)],
-           &gauss[static_cast<size_t>(i)]);
-    }
-    for (int i = 0; i < layers + 2; ++i) {
-      Subtract(gauss[static_cast<size_t>(i + 1)], gauss[static_cast<size_t>(i)],
-               &dog[static_cast<size_t>(i)]);
+      Blur(i == 1 ? *g0 : gauss[static_cast<size_t>(i - 1)], kernels[static_cast<size_t>(i)],
+           &gauss[static_cast<size_t>(i)], &dog[static_cast<size_t>(i - 1)]);
     }
     auto& mag = mags[static_cast<size_t>(o)];
     auto& ori = oris[static_cast<size_t>(o)];
     mag.resize(static_cast<size_t>(layers + 1));
     ori.resize(static_cast<size_t>(layers + 1));
-    const int w = gauss[0].w;
+    const int w = g0->w;
     for (int i = 1; i <= layers; ++i) {
       candidates.clear();
       FindExtrema(dog[static_cast<size_t>(i - 1)], dog[static_cast<size_t>(i)],
@@ -397,7 +409,10 @@ Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
         kp.c = p % w;
         if (!Refine(dog, layers, options.contrast_threshold, &kp)) continue;
         const auto l = static_cast<size_t>(kp.layer);
-        if (mag[l].w == 0) GradientPolar(gauss[l], &mag[l], &ori[l]);
+        if (!have_grad[static_cast<size_t>(o)][l]) {
+          GradientPolar(gauss[l], &mag[l], &ori[l]);
+          have_grad[static_cast<size_t>(o)][l] = 1;
+        }
         AssignOrientations(mag[l], ori[l], kp, &keypoints);
       }
     }
@@ -426,7 +441,7 @@ Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
   out.descriptors.create(static_cast<int>(keypoints.size()), kDescWidth * kDescWidth * kDescBins,
                          CV_32F);
   out.keypoints.reserve(keypoints.size());
-  DescriptorSamples samples;
+  DescriptorSamples& samples = ws.samples;
   // Original pixels: base pixel p of octave o is (p 2^o + 0.5) 2^first - 0.5 (centres aligned),
   // then the resize factor's exact per-axis ratio.
   const double sx = static_cast<double>(input.cols) / gray.cols;

@@ -21,8 +21,10 @@ struct Plane {
   int w = 0;
   int h = 0;
   hwy::AlignedFreeUniquePtr<float[]> px;
+  size_t capacity = 0;  ///< Allocated floats (Resize reuses them when large enough).
   Plane() = default;
   Plane(int width, int height);
+  void Resize(int width, int height);
   float* Row(int y) { return px.get() + static_cast<size_t>(y) * static_cast<size_t>(w); }
   const float* Row(int y) const {
     return px.get() + static_cast<size_t>(y) * static_cast<size_t>(w);
@@ -35,9 +37,10 @@ struct Plane {
 std::vector<float> GaussianHalfKernel(double sigma);
 
 /// Separable convolution with the symmetric kernel `half` (k[0..r]), borders reflected as
-/// OpenCV's BORDER_REFLECT_101 (also for r larger than the image). `dst` is resized.
+/// OpenCV's BORDER_REFLECT_101 (also for r larger than the image). `dst` is resized. With
+/// `dog`, also writes dst - src there (the next difference of Gaussians, in the same pass).
 /// Returns the Highway target that ran.
-int64_t Blur(const Plane& src, const std::vector<float>& half, Plane* dst);
+int64_t Blur(const Plane& src, const std::vector<float>& half, Plane* dst, Plane* dog = nullptr);
 void BlurScalar(const Plane& src, const std::vector<float>& half, Plane* dst);
 
 /// out = a - b (same size; `out` is resized).
@@ -62,9 +65,11 @@ float FastAtan2Deg(float y, float x);
 
 /// The samples of one descriptor window (Lowe 2004 Sec. 6.1) from precomputed gradient maps:
 /// for every pixel of the square of half-size `radius` around (cx, cy) (integer centre) that
-/// falls inside the 4x4 grid after rotation, its row/column bin (in [-1, 4)), orientation bin
-/// (relative to `ori_deg`, in bins of 45 degrees, [0, 8)) and magnitude times the Gaussian
-/// window (sigma = half the grid). `dx0`/`dy0` is the keypoint's sub-pixel offset from (cx, cy).
+/// falls inside the 4x4 grid after rotation, the lower corner of its trilinear cell as a flat
+/// index into a 6x6x10 histogram (row bin r0 in [-1, 3] at (r0 + 1) * 60, column bin c0 at
+/// (c0 + 1) * 10, orientation bin o0 in [0, 8) relative to `ori_deg`, 45 degrees each), the
+/// three fractional parts and the magnitude times the Gaussian window (sigma = half the grid).
+/// `dx0`/`dy0` is the keypoint's sub-pixel offset from (cx, cy).
 struct DescriptorWindow {
   int cx = 0, cy = 0, radius = 0;
   float dx0 = 0, dy0 = 0;
@@ -72,7 +77,8 @@ struct DescriptorWindow {
   float ori_deg = 0;
 };
 struct DescriptorSamples {
-  std::vector<float> rbin, cbin, obin, mag;
+  std::vector<int32_t> bin;
+  std::vector<float> rfrac, cfrac, ofrac, mag;
   size_t n = 0;
 };
 int64_t CollectDescriptorSamples(const Plane& mag, const Plane& ori, const DescriptorWindow& win,

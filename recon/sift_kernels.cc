@@ -46,19 +46,47 @@ inline void DescriptorSample(const DescriptorWindow& win, float jj, float ii, fl
   if (!(rbin > -1.0f && rbin < 4.0f && cbin > -1.0f && cbin < 4.0f)) return;
   float obin = (o - win.ori_deg) * kDescBinsPerDeg;
   if (obin < 0) obin += 8.0f;
+  const float r0 = std::floor(rbin), c0 = std::floor(cbin), o0 = std::floor(obin);
+  int oi = static_cast<int>(o0);
+  if (oi >= 8) oi -= 8;
   const size_t k = out->n++;
-  out->rbin[k] = rbin;
-  out->cbin[k] = cbin;
-  out->obin[k] = obin;
+  out->bin[k] = (static_cast<int>(r0) + 1) * 60 + (static_cast<int>(c0) + 1) * 10 + oi;
+  out->rfrac[k] = rbin - r0;
+  out->cfrac[k] = cbin - c0;
+  out->ofrac[k] = obin - o0;
   out->mag[k] = m * std::exp((c_rot * c_rot + r_rot * r_rot) * kDescExpScale);
+}
+
+// The columns of row offset `ii` whose rotated position can fall inside the grid: both rotated
+// coordinates within (-2.5, 2.5) bins, solved for the column offset, widened by one pixel
+// (the exact test stays per sample). Narrows [*x0, *x1]; false if empty.
+inline bool Slab(float a, float b, float* lo, float* hi) {
+  // a jj + b in (-2.5, 2.5)
+  if (std::abs(a) < 1e-9f) return std::abs(b) < 2.5f;
+  float l = (-2.5f - b) / a, h = (2.5f - b) / a;
+  if (l > h) std::swap(l, h);
+  *lo = std::max(*lo, l);
+  *hi = std::min(*hi, h);
+  return true;
+}
+
+inline bool RowSpan(const DescriptorWindow& win, float ii, int* x0, int* x1) {
+  float lo = -1e9f, hi = 1e9f;
+  if (!Slab(win.cos_t, -ii * win.sin_t, &lo, &hi)) return false;
+  if (!Slab(win.sin_t, ii * win.cos_t, &lo, &hi)) return false;
+  const float base = static_cast<float>(win.cx) + win.dx0;
+  *x0 = std::max(*x0, static_cast<int>(std::floor(base + lo)) - 1);
+  *x1 = std::min(*x1, static_cast<int>(std::ceil(base + hi)) + 1);
+  return *x0 <= *x1;
 }
 
 inline void ReserveSamples(const DescriptorWindow& win, DescriptorSamples* out) {
   const size_t cap = static_cast<size_t>(2 * win.radius + 1) * (2 * win.radius + 1) + 64;
-  if (out->rbin.size() < cap) {
-    out->rbin.resize(cap);
-    out->cbin.resize(cap);
-    out->obin.resize(cap);
+  if (out->mag.size() < cap) {
+    out->bin.resize(cap);
+    out->rfrac.resize(cap);
+    out->cfrac.resize(cap);
+    out->ofrac.resize(cap);
     out->mag.resize(cap);
   }
   out->n = 0;
@@ -71,7 +99,7 @@ HWY_BEFORE_NAMESPACE();
 namespace mm::sift::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst);
+int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst, Plane* dog);
 int64_t SubtractImpl(const Plane& a, const Plane& b, Plane* out);
 int64_t FindExtremaImpl(const Plane& prev, const Plane& cur, const Plane& next, float threshold,
                         int border, std::vector<int>* out);
@@ -80,7 +108,7 @@ int64_t CollectDescriptorSamplesImpl(const Plane& mag, const Plane& ori,
                                      const DescriptorWindow& win, DescriptorSamples* out);
 
 // Vertical pass into a padded row buffer, then the horizontal pass from it.
-int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst) {
+int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst, Plane* dog) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const int w = src.w, h = src.h, r = static_cast<int>(half.size()) - 1;
@@ -111,6 +139,8 @@ int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst) {
       t[w - 1 + i] = t[detail::Reflect101(w - 1 + i, w)];
     }
     float* out = dst->Row(y);
+    const float* sr = src.Row(y);
+    float* dg = dog != nullptr ? dog->Row(y) : nullptr;
     x = 0;
     for (; x + n <= w; x += n) {
       auto acc = hn::Mul(hn::Set(d, k[0]), hn::LoadU(d, t + x));
@@ -119,11 +149,13 @@ int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst) {
                          hn::Add(hn::LoadU(d, t + x - i), hn::LoadU(d, t + x + i)), acc);
       }
       hn::StoreU(acc, d, out + x);
+      if (dg != nullptr) hn::StoreU(hn::Sub(acc, hn::LoadU(d, sr + x)), d, dg + x);
     }
     for (; x < w; ++x) {
       float acc = k[0] * t[x];
       for (int i = 1; i <= r; ++i) acc += k[i] * (t[x - i] + t[x + i]);
       out[x] = acc;
+      if (dg != nullptr) dg[x] = acc - sr[x];
     }
   }
   return HWY_TARGET;
@@ -277,13 +309,17 @@ int64_t CollectDescriptorSamplesImpl(const Plane& mag, const Plane& ori,
   const auto ori0 = hn::Set(d, win.ori_deg), bins = hn::Set(d, detail::kDescBinsPerDeg);
   const auto eight = hn::Set(d, 8.0f), zero = hn::Zero(d),
              escale = hn::Set(d, detail::kDescExpScale);
+  const hn::RebindToSigned<decltype(d)> di;
+  const auto i1 = hn::Set(di, 1), i7 = hn::Set(di, 7), i8 = hn::Set(di, 8), i10 = hn::Set(di, 10),
+             i60 = hn::Set(di, 60);
   for (int y = y0; y <= y1; ++y) {
     const float ii = static_cast<float>(y - win.cy) - win.dy0;
     const auto vi = hn::Set(d, ii);
     const float* mrow = mag.Row(y);
     const float* orow = ori.Row(y);
-    int x = x0;
-    for (; x + n <= x1 + 1; x += n) {
+    int x = x0, x_end = x1;
+    if (!detail::RowSpan(win, ii, &x, &x_end)) continue;
+    for (; x + n <= x_end + 1; x += n) {
       const auto jj = hn::Iota(d, static_cast<float>(x - win.cx) - win.dx0);
       const auto c_rot = hn::NegMulAdd(vi, sin_t, hn::Mul(jj, cos_t));
       const auto r_rot = hn::MulAdd(vi, cos_t, hn::Mul(jj, sin_t));
@@ -295,13 +331,23 @@ int64_t CollectDescriptorSamplesImpl(const Plane& mag, const Plane& ori,
       obin = hn::IfThenElse(hn::Lt(obin, zero), hn::Add(obin, eight), obin);
       const auto r2 = hn::MulAdd(c_rot, c_rot, hn::Mul(r_rot, r_rot));
       const auto m = hn::Mul(hn::LoadU(d, mrow + x), hn::Exp(d, hn::Mul(r2, escale)));
+      const auto r0 = hn::Floor(rbin), c0 = hn::Floor(cbin), o0 = hn::Floor(obin);
+      auto oi = hn::ConvertTo(di, o0);
+      oi = hn::IfThenElse(hn::Gt(oi, i7), hn::Sub(oi, i8), oi);
+      const auto bin = hn::Add(hn::Add(hn::Mul(hn::Add(hn::ConvertTo(di, r0), i1), i60),
+                                       hn::Mul(hn::Add(hn::ConvertTo(di, c0), i1), i10)),
+                               oi);
+      // Compress in registers and store whole vectors (the buffers have a vector of slack):
+      // a masked compress-store to memory is microcoded and slow on some x86 cores.
       const size_t k = out->n;
-      hn::CompressStore(rbin, ok, d, out->rbin.data() + k);
-      hn::CompressStore(cbin, ok, d, out->cbin.data() + k);
-      hn::CompressStore(obin, ok, d, out->obin.data() + k);
-      out->n += hn::CompressStore(m, ok, d, out->mag.data() + k);
+      hn::StoreU(hn::Compress(bin, hn::RebindMask(di, ok)), di, out->bin.data() + k);
+      hn::StoreU(hn::Compress(hn::Sub(rbin, r0), ok), d, out->rfrac.data() + k);
+      hn::StoreU(hn::Compress(hn::Sub(cbin, c0), ok), d, out->cfrac.data() + k);
+      hn::StoreU(hn::Compress(hn::Sub(obin, o0), ok), d, out->ofrac.data() + k);
+      hn::StoreU(hn::Compress(m, ok), d, out->mag.data() + k);
+      out->n += hn::CountTrue(d, ok);
     }
-    for (; x <= x1; ++x) {
+    for (; x <= x_end; ++x) {
       detail::DescriptorSample(win, static_cast<float>(x - win.cx) - win.dx0, ii, mrow[x], orow[x],
                                out);
     }
@@ -321,10 +367,17 @@ HWY_EXPORT(FindExtremaImpl);
 HWY_EXPORT(GradientPolarImpl);
 HWY_EXPORT(CollectDescriptorSamplesImpl);
 
-Plane::Plane(int width, int height)
-    : w(width),
-      h(height),
-      px(hwy::AllocateAligned<float>(static_cast<size_t>(width) * static_cast<size_t>(height))) {}
+Plane::Plane(int width, int height) { Resize(width, height); }
+
+void Plane::Resize(int width, int height) {
+  const size_t n = static_cast<size_t>(width) * static_cast<size_t>(height);
+  if (n > capacity || !px) {
+    px = hwy::AllocateAligned<float>(std::max<size_t>(n, 1));
+    capacity = std::max<size_t>(n, 1);
+  }
+  w = width;
+  h = height;
+}
 
 std::vector<float> GaussianHalfKernel(double sigma) {
   const int size = std::max(1, static_cast<int>(std::lround(sigma * 8 + 1)) | 1);
@@ -340,13 +393,14 @@ std::vector<float> GaussianHalfKernel(double sigma) {
   return out;
 }
 
-int64_t Blur(const Plane& src, const std::vector<float>& half, Plane* dst) {
-  if (dst->w != src.w || dst->h != src.h) *dst = Plane(src.w, src.h);
-  return HWY_DYNAMIC_DISPATCH(BlurImpl)(src, half, dst);
+int64_t Blur(const Plane& src, const std::vector<float>& half, Plane* dst, Plane* dog) {
+  dst->Resize(src.w, src.h);
+  if (dog != nullptr) dog->Resize(src.w, src.h);
+  return HWY_DYNAMIC_DISPATCH(BlurImpl)(src, half, dst, dog);
 }
 
 void BlurScalar(const Plane& src, const std::vector<float>& half, Plane* dst) {
-  if (dst->w != src.w || dst->h != src.h) *dst = Plane(src.w, src.h);
+  dst->Resize(src.w, src.h);
   const int w = src.w, h = src.h, r = static_cast<int>(half.size()) - 1;
   Plane tmp(w, h);
   for (int y = 0; y < h; ++y) {
@@ -372,7 +426,7 @@ void BlurScalar(const Plane& src, const std::vector<float>& half, Plane* dst) {
 }
 
 int64_t Subtract(const Plane& a, const Plane& b, Plane* out) {
-  if (out->w != a.w || out->h != a.h) *out = Plane(a.w, a.h);
+  out->Resize(a.w, a.h);
   return HWY_DYNAMIC_DISPATCH(SubtractImpl)(a, b, out);
 }
 
@@ -418,14 +472,14 @@ float FastAtan2Deg(float y, float x) {
 }
 
 int64_t GradientPolar(const Plane& img, Plane* mag, Plane* ori) {
-  if (mag->w != img.w || mag->h != img.h) *mag = Plane(img.w, img.h);
-  if (ori->w != img.w || ori->h != img.h) *ori = Plane(img.w, img.h);
+  mag->Resize(img.w, img.h);
+  ori->Resize(img.w, img.h);
   return HWY_DYNAMIC_DISPATCH(GradientPolarImpl)(img, mag, ori);
 }
 
 void GradientPolarScalar(const Plane& img, Plane* mag, Plane* ori) {
-  if (mag->w != img.w || mag->h != img.h) *mag = Plane(img.w, img.h);
-  if (ori->w != img.w || ori->h != img.h) *ori = Plane(img.w, img.h);
+  mag->Resize(img.w, img.h);
+  ori->Resize(img.w, img.h);
   for (int y = 0; y < img.h; ++y) {
     for (int x = 0; x < img.w; ++x) {
       float m = 0, o = 0;

@@ -124,9 +124,10 @@ TEST(SiftKernels, SubtractExtremaAndGradientsEqualScalarReferenceOnEveryTarget) 
     EXPECT_EQ(sift::CollectDescriptorSamples(mag_ref, ori_ref, win, &samples), target);
     ASSERT_EQ(samples.n, samples_ref.n) << name;
     for (size_t i = 0; i < samples.n; ++i) {
-      ASSERT_NEAR(samples.rbin[i], samples_ref.rbin[i], 1e-5f) << name;
-      ASSERT_NEAR(samples.cbin[i], samples_ref.cbin[i], 1e-5f) << name;
-      ASSERT_NEAR(samples.obin[i], samples_ref.obin[i], 1e-5f) << name;
+      ASSERT_EQ(samples.bin[i], samples_ref.bin[i]) << name;
+      ASSERT_NEAR(samples.rfrac[i], samples_ref.rfrac[i], 1e-5f) << name;
+      ASSERT_NEAR(samples.cfrac[i], samples_ref.cfrac[i], 1e-5f) << name;
+      ASSERT_NEAR(samples.ofrac[i], samples_ref.ofrac[i], 1e-5f) << name;
       ASSERT_NEAR(samples.mag[i], samples_ref.mag[i], 1e-4f * (1 + samples_ref.mag[i])) << name;
     }
   });
