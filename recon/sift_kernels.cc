@@ -107,41 +107,28 @@ int64_t GradientPolarImpl(const Plane& img, Plane* mag, Plane* ori);
 int64_t CollectDescriptorSamplesImpl(const Plane& mag, const Plane& ori,
                                      const DescriptorWindow& win, DescriptorSamples* out);
 
-// Vertical pass into a padded row buffer, then the horizontal pass from it.
+// Horizontal pass of each source row once, into a ring of 2r + 1 filtered rows (L2-resident),
+// then the vertical pass from the ring: the source and destination are each streamed once
+// (a vertical-first pass would stream 2r + 1 source rows at a time).
 int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst, Plane* dog) {
   const hn::ScalableTag<float> d;
   const int n = static_cast<int>(hn::Lanes(d));
   const int w = src.w, h = src.h, r = static_cast<int>(half.size()) - 1;
-  auto buf = hwy::AllocateAligned<float>(static_cast<size_t>(w + 2 * r + n));
-  std::vector<const float*> rows(static_cast<size_t>(2 * r + 1));
+  const int slots = 2 * r + 1;
+  const size_t stride = (static_cast<size_t>(w) + 15) / 16 * 16;
+  auto ring = hwy::AllocateAligned<float>(stride * static_cast<size_t>(slots));
+  auto pad = hwy::AllocateAligned<float>(static_cast<size_t>(w + 2 * r + n));
   const float* k = half.data();
-  for (int y = 0; y < h; ++y) {
-    for (int i = -r; i <= r; ++i)
-      rows[static_cast<size_t>(i + r)] = src.Row(detail::Reflect101(y + i, h));
-    const float* const* rc = rows.data() + r;
-    float* t = buf.get() + r;
-    int x = 0;
-    for (; x + n <= w; x += n) {
-      auto acc = hn::Mul(hn::Set(d, k[0]), hn::LoadU(d, rc[0] + x));
-      for (int i = 1; i <= r; ++i) {
-        acc = hn::MulAdd(hn::Set(d, k[i]),
-                         hn::Add(hn::LoadU(d, rc[-i] + x), hn::LoadU(d, rc[i] + x)), acc);
-      }
-      hn::StoreU(acc, d, t + x);
-    }
-    for (; x < w; ++x) {
-      float acc = k[0] * rc[0][x];
-      for (int i = 1; i <= r; ++i) acc += k[i] * (rc[-i][x] + rc[i][x]);
-      t[x] = acc;
-    }
+  auto filter_row = [&](int j) {
+    const float* s = src.Row(j);
+    float* t = pad.get() + r;
+    std::memcpy(t, s, sizeof(float) * static_cast<size_t>(w));
     for (int i = 1; i <= r; ++i) {
-      t[-i] = t[detail::Reflect101(-i, w)];
-      t[w - 1 + i] = t[detail::Reflect101(w - 1 + i, w)];
+      t[-i] = s[detail::Reflect101(-i, w)];
+      t[w - 1 + i] = s[detail::Reflect101(w - 1 + i, w)];
     }
-    float* out = dst->Row(y);
-    const float* sr = src.Row(y);
-    float* dg = dog != nullptr ? dog->Row(y) : nullptr;
-    x = 0;
+    float* out = ring.get() + static_cast<size_t>(j % slots) * stride;
+    int x = 0;
     for (; x + n <= w; x += n) {
       auto acc = hn::Mul(hn::Set(d, k[0]), hn::LoadU(d, t + x));
       for (int i = 1; i <= r; ++i) {
@@ -149,11 +136,38 @@ int64_t BlurImpl(const Plane& src, const std::vector<float>& half, Plane* dst, P
                          hn::Add(hn::LoadU(d, t + x - i), hn::LoadU(d, t + x + i)), acc);
       }
       hn::StoreU(acc, d, out + x);
-      if (dg != nullptr) hn::StoreU(hn::Sub(acc, hn::LoadU(d, sr + x)), d, dg + x);
     }
     for (; x < w; ++x) {
       float acc = k[0] * t[x];
       for (int i = 1; i <= r; ++i) acc += k[i] * (t[x - i] + t[x + i]);
+      out[x] = acc;
+    }
+  };
+  std::vector<const float*> rows(static_cast<size_t>(slots));
+  int filtered = 0;  // Rows [0, filtered) have been filtered (the last 2r + 1 are in the ring).
+  for (int y = 0; y < h; ++y) {
+    for (; filtered <= std::min(h - 1, y + r); ++filtered) filter_row(filtered);
+    for (int i = -r; i <= r; ++i) {
+      rows[static_cast<size_t>(i + r)] =
+          ring.get() + static_cast<size_t>(detail::Reflect101(y + i, h) % slots) * stride;
+    }
+    const float* const* rc = rows.data() + r;
+    float* out = dst->Row(y);
+    const float* sr = src.Row(y);
+    float* dg = dog != nullptr ? dog->Row(y) : nullptr;
+    int x = 0;
+    for (; x + n <= w; x += n) {
+      auto acc = hn::Mul(hn::Set(d, k[0]), hn::LoadU(d, rc[0] + x));
+      for (int i = 1; i <= r; ++i) {
+        acc = hn::MulAdd(hn::Set(d, k[i]),
+                         hn::Add(hn::LoadU(d, rc[-i] + x), hn::LoadU(d, rc[i] + x)), acc);
+      }
+      hn::StoreU(acc, d, out + x);
+      if (dg != nullptr) hn::StoreU(hn::Sub(acc, hn::LoadU(d, sr + x)), d, dg + x);
+    }
+    for (; x < w; ++x) {
+      float acc = k[0] * rc[0][x];
+      for (int i = 1; i <= r; ++i) acc += k[i] * (rc[-i][x] + rc[i][x]);
       out[x] = acc;
       if (dg != nullptr) dg[x] = acc - sr[x];
     }
@@ -408,7 +422,7 @@ void BlurScalar(const Plane& src, const std::vector<float>& half, Plane* dst) {
       float acc = half[0] * src.At(y, x);
       for (int i = 1; i <= r; ++i) {
         acc += half[static_cast<size_t>(i)] *
-               (src.At(detail::Reflect101(y - i, h), x) + src.At(detail::Reflect101(y + i, h), x));
+               (src.At(y, detail::Reflect101(x - i, w)) + src.At(y, detail::Reflect101(x + i, w)));
       }
       tmp.Row(y)[x] = acc;
     }
@@ -418,7 +432,7 @@ void BlurScalar(const Plane& src, const std::vector<float>& half, Plane* dst) {
       float acc = half[0] * tmp.At(y, x);
       for (int i = 1; i <= r; ++i) {
         acc += half[static_cast<size_t>(i)] *
-               (tmp.At(y, detail::Reflect101(x - i, w)) + tmp.At(y, detail::Reflect101(x + i, w)));
+               (tmp.At(detail::Reflect101(y - i, h), x) + tmp.At(detail::Reflect101(y + i, h), x));
       }
       dst->Row(y)[x] = acc;
     }
