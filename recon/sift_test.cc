@@ -196,10 +196,61 @@ TEST(SiftOwn, AgreesWithOpenCvOnTumKeyframe) {
             << "; within 1 px and same octave: " << located_share * 100 << " %; "
             << "descriptor L2 (norm ~512) over " << compared << " pairs: median " << median
             << ", p90 " << p90 << "\n";
+  // Measured: 1300 vs 1300 keypoints, 100 % located, L2 median 25.5 and p90 42.9 (OpenCV's
+  // descriptors of different keypoints are typically > 300 apart).
   EXPECT_NEAR(static_cast<double>(own.keypoints.size()), cv_f.keypoints.size(),
-              0.1 * cv_f.keypoints.size());
-  EXPECT_GE(located_share, 0.0);
-  EXPECT_LE(median, 1e9);
+              0.05 * cv_f.keypoints.size());
+  EXPECT_GE(located_share, 0.95);
+  EXPECT_GT(compared, static_cast<int>(0.9 * own.keypoints.size()));
+  EXPECT_LT(median, 40.0);
+  EXPECT_LT(p90, 70.0);
+}
+
+// max_features keeps the strongest by response; the others are the full run's keypoints.
+TEST(SiftOwn, MaxFeaturesKeepsTheStrongest) {
+  const cv::Mat gray = cv::imread((kRgb / "1341847981.726650.png").string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(gray.empty());
+  SiftOptions options;
+  options.impl = SiftImpl::kOwn;
+  options.max_features = 0;
+  const Features all = ExtractSift(gray, options);
+  options.max_features = 300;
+  const Features capped = ExtractSift(gray, options);
+  ASSERT_EQ(capped.keypoints.size(), 300u);
+  ASSERT_EQ(capped.descriptors.rows, 300);
+  std::vector<float> responses;
+  for (const cv::KeyPoint& k : all.keypoints) responses.push_back(k.response);
+  std::sort(responses.rbegin(), responses.rend());
+  for (const cv::KeyPoint& k : capped.keypoints) EXPECT_GE(k.response, responses[299]);
+}
+
+// first_octave 0 / 1 start the pyramid natively at full / half resolution: their keypoints are
+// those of first_octave -1 from the same octave on (positions in the original pixels).
+TEST(SiftOwn, FirstOctaveIsNative) {
+  const cv::Mat gray = cv::imread((kRgb / "1341847980.722988.png").string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(gray.empty());
+  SiftOptions options;
+  options.impl = SiftImpl::kOwn;
+  const Features full = ExtractSift(gray, options);
+  for (const int first : {0, 1}) {
+    options.first_octave = first;
+    const Features f = ExtractSift(gray, options);
+    ASSERT_GT(f.keypoints.size(), 50u);
+    int located = 0;
+    for (const cv::KeyPoint& a : f.keypoints) {
+      EXPECT_GE(Octave(a), first);
+      for (const cv::KeyPoint& b : full.keypoints) {
+        if (Octave(a) == Octave(b) && cv::norm(a.pt - b.pt) <= 1.5 * std::ldexp(1.0, first)) {
+          ++located;
+          break;
+        }
+      }
+    }
+    const double share = static_cast<double>(located) / f.keypoints.size();
+    std::cout << "first octave " << first << ": " << f.keypoints.size() << " keypoints, "
+              << share * 100 << " % near a first-octave -1 keypoint of the same octave\n";
+    EXPECT_GE(share, 0.75);  // Measured 87 % (octave 0) and 84 % (octave 1).
+  }
 }
 
 }  // namespace
