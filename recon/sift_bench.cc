@@ -5,6 +5,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <hwy/targets.h>
+#include <algorithm>
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -42,6 +44,25 @@ void BM_OwnSift(benchmark::State& state) { RunSift(state, mm::SiftImpl::kOwn); }
 BENCHMARK(BM_OwnSift)->Unit(benchmark::kMillisecond);
 
 void BM_OpenCvSift(benchmark::State& state) { RunSift(state, mm::SiftImpl::kOpenCv); }
+
+// The own SIFT restricted to each compiled Highway target (e.g. SSE4 as a proxy for 128-bit NEON).
+void BM_OwnSiftPerTarget(benchmark::State& state) {
+  const auto target = static_cast<int64_t>(state.range(0));
+  const std::vector<int64_t> targets = hwy::SupportedAndGeneratedTargets();
+  if (std::find(targets.begin(), targets.end(), target) == targets.end()) {
+    state.SkipWithError("target not supported");
+    return;
+  }
+  hwy::SetSupportedTargetsForTest(target);
+  RunSift(state, mm::SiftImpl::kOwn);
+  hwy::SetSupportedTargetsForTest(0);
+  state.SetLabel(hwy::TargetName(target));
+}
+BENCHMARK(BM_OwnSiftPerTarget)
+    ->Arg(HWY_SSE4)
+    ->Arg(HWY_AVX2)
+    ->Arg(HWY_AVX3)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_OpenCvSift)->Unit(benchmark::kMillisecond);
 
 mm::sift::Plane DoubledFrame() {

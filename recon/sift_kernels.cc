@@ -351,15 +351,41 @@ int64_t CollectDescriptorSamplesImpl(const Plane& mag, const Plane& ori,
       const auto bin = hn::Add(hn::Add(hn::Mul(hn::Add(hn::ConvertTo(di, r0), i1), i60),
                                        hn::Mul(hn::Add(hn::ConvertTo(di, c0), i1), i10)),
                                oi);
-      // Compress in registers and store whole vectors (the buffers have a vector of slack):
-      // a masked compress-store to memory is microcoded and slow on some x86 cores.
       const size_t k = out->n;
+      const auto rf = hn::Sub(rbin, r0), cf = hn::Sub(cbin, c0), of = hn::Sub(obin, o0);
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+      // Native compress in registers, then whole-vector stores (the buffers have a vector of
+      // slack): a masked compress-store to memory is microcoded and slow on Zen 4.
       hn::StoreU(hn::Compress(bin, hn::RebindMask(di, ok)), di, out->bin.data() + k);
-      hn::StoreU(hn::Compress(hn::Sub(rbin, r0), ok), d, out->rfrac.data() + k);
-      hn::StoreU(hn::Compress(hn::Sub(cbin, c0), ok), d, out->cfrac.data() + k);
-      hn::StoreU(hn::Compress(hn::Sub(obin, o0), ok), d, out->ofrac.data() + k);
+      hn::StoreU(hn::Compress(rf, ok), d, out->rfrac.data() + k);
+      hn::StoreU(hn::Compress(cf, ok), d, out->cfrac.data() + k);
+      hn::StoreU(hn::Compress(of, ok), d, out->ofrac.data() + k);
       hn::StoreU(hn::Compress(m, ok), d, out->mag.data() + k);
       out->n += hn::CountTrue(d, ok);
+#else
+      // Elsewhere (hwy 1.0.3 with GCC copies Compress's lookup table onto the stack per call),
+      // store the lanes and append the valid ones.
+      HWY_ALIGN int32_t tb[64];
+      HWY_ALIGN float tr[64], tc[64], to[64], tm[64];
+      uint8_t bits[64 / 8] = {};
+      hn::Store(bin, di, tb);
+      hn::Store(rf, d, tr);
+      hn::Store(cf, d, tc);
+      hn::Store(of, d, to);
+      hn::Store(m, d, tm);
+      hn::StoreMaskBits(d, ok, bits);
+      size_t j = k;
+      for (int i = 0; i < n; ++i) {
+        if (((bits[i / 8] >> (i % 8)) & 1) == 0) continue;
+        out->bin[j] = tb[i];
+        out->rfrac[j] = tr[i];
+        out->cfrac[j] = tc[i];
+        out->ofrac[j] = to[i];
+        out->mag[j] = tm[i];
+        ++j;
+      }
+      out->n = j;
+#endif
     }
     for (; x <= x_end; ++x) {
       detail::DescriptorSample(win, static_cast<float>(x - win.cx) - win.dx0, ii, mrow[x], orow[x],
