@@ -4,6 +4,8 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "recon/sift.h"
+
 namespace mm {
 
 std::string SiftOptions::Check() const {
@@ -17,8 +19,9 @@ std::string SiftOptions::Check() const {
 
 Features ExtractSift(const cv::Mat& gray, const SiftOptions& options) {
   CV_Assert(gray.type() == CV_8UC1);
-  auto sift = cv::SIFT::create(options.max_features, options.octave_layers,
-                               options.contrast_threshold);
+  if (options.impl == SiftImpl::kOwn) return sift::ExtractSiftOwn(gray, options);
+  auto sift =
+      cv::SIFT::create(options.max_features, options.octave_layers, options.contrast_threshold);
   Features out;
   if (options.first_octave < 0 && !(options.resize_factor < 1.0)) {
     sift->detectAndCompute(gray, cv::noArray(), out.keypoints, out.descriptors);

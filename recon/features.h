@@ -11,13 +11,19 @@
 
 namespace mm {
 
+/// Which SIFT runs: OpenCV 4.6's cv::SIFT, or ours (recon/sift.h: same scale space and keypoint
+/// convention, Highway kernels).
+enum class SiftImpl { kOpenCv, kOwn };
+
 struct SiftOptions {
-  int max_features = 4000;          ///< Keep the strongest N (0 = all).
-  double contrast_threshold = 0.04; ///< Lowe's D(x) threshold, as OpenCV's.
-  int octave_layers = 3;            ///< Scales per octave.
+  SiftImpl impl = SiftImpl::kOpenCv;
+  int max_features = 4000;           ///< Keep the strongest N (0 = all).
+  double contrast_threshold = 0.04;  ///< Lowe's D(x) threshold, as OpenCV's.
+  int octave_layers = 3;             ///< Scales per octave.
   /// Lowe's first octave: -1 doubles the image (OpenCV's fixed choice), 0 starts at full
-  /// resolution, 1 at half. OpenCV 4.6 always doubles, so for first_octave = k >= 0 the image
-  /// is downscaled by 2^(k+1) before and keypoints are scaled back after.
+  /// resolution, 1 at half. OpenCV 4.6 always doubles, so with kOpenCv for first_octave = k >= 0
+  /// the image is downscaled by 2^(k+1) before and keypoints are scaled back after; kOwn starts
+  /// its pyramid at octave k natively.
   int first_octave = -1;
   /// The image is resized by this factor first (INTER_AREA) and keypoints are mapped back:
   /// between octaves, e.g. 0.75 with first_octave -1 starts at 1.5x the original resolution
@@ -31,12 +37,12 @@ struct Features {
   cv::Mat descriptors;  ///< CV_32F, one 128-d row per keypoint.
 };
 
-/// SIFT on an 8-bit gray image.
+/// SIFT on an 8-bit gray image (options.impl chooses the implementation).
 Features ExtractSift(const cv::Mat& gray, const SiftOptions& options);
 
 struct MatchOptions {
-  double ratio = 0.8;   ///< Lowe's ratio test (0.6 as in the thesis this project follows).
-  bool mutual = true;   ///< Keep a match only if it is also the best match in reverse.
+  double ratio = 0.8;  ///< Lowe's ratio test (0.6 as in the thesis this project follows).
+  bool mutual = true;  ///< Keep a match only if it is also the best match in reverse.
   [[nodiscard]] std::string Check() const;
 };
 
@@ -52,8 +58,7 @@ struct Match {
 /// that of MatchDescriptorsScalar. Ties: the lowest index wins. `target_used` (optional)
 /// receives the Highway target that ran (e.g. HWY_AVX2).
 std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
-                                    const MatchOptions& options,
-                                    int64_t* target_used = nullptr);
+                                    const MatchOptions& options, int64_t* target_used = nullptr);
 
 /// The scalar reference of MatchDescriptors (same rounding, order and tie rule).
 std::vector<Match> MatchDescriptorsScalar(const cv::Mat& descriptors_a,

@@ -3,8 +3,8 @@
 
 #include <gtest/gtest.h>
 
-#include "recon/evaluation.h"
 #include "calib/calib_io.h"
+#include "recon/evaluation.h"
 #include "tests/support/shared_data.h"
 
 namespace mm {
@@ -15,11 +15,12 @@ BouguetCamera TumCamera() {
   return LoadCalibration(std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office/calib.toml");
 }
 
-EvalResult RunEval(int step) {
+EvalResult RunEval(int step, SiftImpl impl = EvalOptions{}.pair.sift.impl) {
   const auto dir = test::RequireSharedData("tum_fr3_long_office_household");
   EvalOptions options;
   options.list = "keyframes_1hz.txt";
   options.step = step;
+  options.pair.sift.impl = impl;
   const EvalResult r = EvaluateTumPairs(dir, TumCamera(), options);
   for (const PairEval& p : r.pairs) std::cout << FormatPairLine(p) << "\n";
   std::cout << FormatSummary(r.summary);
@@ -65,6 +66,38 @@ TEST(TumAccuracy, Step3DepthNoWorseThanColmap) {
   // points, so the measurement's bound is asserted.
   EXPECT_LE(r.summary.depth_rel_err_median, 0.012);
   EXPECT_GE(r.summary.depth_within_10pct, 0.95);
+}
+
+// Our SIFT (SiftImpl::kOwn, recon/sift.h), seed 0. Measured: step 1 0.299 / 0.825 deg, p90
+// 0.457 / 2.60, depth (0, 1) 2.19 %; step 2 0.247 / 0.755 deg, depth (0, 2) 1.44 %; depth
+// (0, 3) 1.23 % (seeds 1-3: 1.10 / 0.96 / 0.97 %; OpenCV's 1.01-1.15 %). The bounds are the
+// issue targets except depth (0, 3), which asserts the measurement's 1.25 %.
+TEST(TumAccuracyOwnSift, Step1MeetsIssueTargets) {
+  const EvalResult r = RunEval(1, SiftImpl::kOwn);
+  ASSERT_TRUE(r.ok) << r.failure_reason;
+  const EvalSummary& s = r.summary;
+  EXPECT_EQ(s.succeeded, 16);
+  EXPECT_LE(s.rot_err_median_deg, 0.30);
+  EXPECT_LE(s.trans_err_median_deg, 1.3);
+  EXPECT_LE(s.rot_err_p90_deg, 0.75);
+  EXPECT_LE(s.trans_err_p90_deg, 3.5);
+  ASSERT_EQ(s.depth_pairs, 1);
+  EXPECT_LE(s.depth_rel_err_median, 0.028);
+}
+
+TEST(TumAccuracyOwnSift, Step2And3) {
+  const EvalResult r2 = RunEval(2, SiftImpl::kOwn);
+  ASSERT_TRUE(r2.ok) << r2.failure_reason;
+  EXPECT_EQ(r2.summary.succeeded, r2.summary.pairs);
+  EXPECT_LE(r2.summary.rot_err_median_deg, 0.42);
+  EXPECT_LE(r2.summary.trans_err_median_deg, 0.96);
+  ASSERT_EQ(r2.summary.depth_pairs, 1);
+  EXPECT_LE(r2.summary.depth_rel_err_median, 0.016);
+  const EvalResult r3 = RunEval(3, SiftImpl::kOwn);
+  ASSERT_TRUE(r3.ok) << r3.failure_reason;
+  ASSERT_EQ(r3.summary.depth_pairs, 1);
+  EXPECT_LE(r3.summary.depth_rel_err_median, 0.0125);
+  EXPECT_GE(r3.summary.depth_within_10pct, 0.95);
 }
 
 }  // namespace
