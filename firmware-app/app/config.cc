@@ -142,8 +142,13 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.Get(keyframes, "keyframes", "timeout_s", &c.keyframe_timeout_s);
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 
-  const auto* recon = r.Table("recon", {"max_features", "contrast_threshold", "match_ratio",
+  const auto* recon = r.Table("recon", {"sift", "max_features", "contrast_threshold", "match_ratio",
                                         "ransac_threshold_px", "min_inliers", "max_depth_ratio"});
+  std::string sift = c.recon.sift.impl == SiftImpl::kOwn ? "own" : "opencv";
+  r.Get(recon, "recon", "sift", &sift);
+  r.Require(sift == "own" || sift == "opencv", recon, "recon", "sift",
+            "'" + sift + "' is not an implementation (own or opencv)");
+  c.recon.sift.impl = sift == "opencv" ? SiftImpl::kOpenCv : SiftImpl::kOwn;
   int64_t max_features = c.recon.sift.max_features;
   int64_t min_inliers = c.recon.two_view.min_inliers;
   r.Get(recon, "recon", "max_features", &max_features);

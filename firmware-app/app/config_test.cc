@@ -28,6 +28,7 @@ TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
   EXPECT_EQ(c.gate.min_inliers, defaults.gate.min_inliers);
   EXPECT_EQ(c.gate.max_homography_inlier_ratio, defaults.gate.max_homography_inlier_ratio);
   EXPECT_EQ(c.keyframe_timeout_s, defaults.keyframe_timeout_s);
+  EXPECT_EQ(c.recon.sift.impl, defaults.recon.sift.impl);
   EXPECT_EQ(c.recon.sift.max_features, defaults.recon.sift.max_features);
   EXPECT_EQ(c.recon.match.ratio, defaults.recon.match.ratio);
   EXPECT_EQ(c.recon.two_view.ransac_threshold_px, defaults.recon.two_view.ransac_threshold_px);
@@ -67,6 +68,7 @@ TEST(DaemonConfig, ErrorsNameTheKey) {
   ExpectError(std::string(kMinimal) + "[keyframes]\ntimeout_s = \"soon\"\n",
               "keyframes.timeout_s': wrong type");
   ExpectError(std::string(kMinimal) + "[recon]\nmatch_ratio = 1.5\n", "recon.match_ratio");
+  ExpectError(std::string(kMinimal) + "[recon]\nsift = \"surf\"\n", "recon.sift");
   ExpectError(std::string(kMinimal) + "[log]\nlevel = \"loud\"\n", "log.level");
   ExpectError("[camera]\ncalibration = \"c.toml\"\n", "camera.uri");
   ExpectError("[camera\n", "not valid TOML");

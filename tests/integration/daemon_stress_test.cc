@@ -28,7 +28,7 @@ TEST(DaemonStress, FiveHundredTriggerCycles) {
                        "[recon]\nmax_features = 1500\n[log]\nlevel = \"warn\"\n", kData,
                        "max_entries = 20\n");
   daemon.Start();
-  int ok = 0;
+  int ok = 0, ok_last_100 = 0;
   long rss_after_50 = 0;
   std::map<std::string, int> failures;  // Reason (without its figures) -> count.
   for (int i = 0; i < cycles; ++i) {
@@ -36,6 +36,7 @@ TEST(DaemonStress, FiveHundredTriggerCycles) {
     ASSERT_TRUE(result.is_object()) << "cycle " << i;
     if (result.value("ok", false)) {
       ++ok;
+      if (i >= cycles - 100) ++ok_last_100;
     } else {
       const std::string error = result.value("error", "");
       ++failures[error.substr(0, error.find(" ("))];
@@ -43,15 +44,21 @@ TEST(DaemonStress, FiveHundredTriggerCycles) {
     if (i == 49) rss_after_50 = RssKiB(daemon.pid());
   }
   const long rss_end = RssKiB(daemon.pid());
-  std::cout << "[ figures  ] " << cycles << " cycles, " << ok << " meshes; RSS after 50: "
+  std::cout << "[ figures  ] " << cycles << " cycles, " << ok << " meshes (" << ok_last_100
+            << " in the last 100); RSS after 50: "
             << rss_after_50 << " KiB, after " << cycles << ": " << rss_end << " KiB\n";
   for (const auto& [reason, count] : failures) {
     std::cout << "[ figures  ] failed " << count << "x: " << reason << "\n";
   }
-  // Pairs that wrap around the 6-frame loop (5 -> 0) may fail, and how many do depends on
-  // timing (rate=max): measured 336-420 meshes of 500 on 2 busy to idle cores. The daemon must
-  // keep making them to the end, not degrade.
-  EXPECT_GE(ok, cycles * 6 / 10);
+  // Pairs that wrap around the 6-frame loop (5 -> 0) lose their tracks, and how many do
+  // depends on timing (rate=max): measured 289-420 meshes of 500 on 2 busy to idle cores. So
+  // the assertions are that no cycle fails for another reason, and that the daemon keeps making
+  // meshes to the end (measured 55-85 in the last 100 cycles), not degrade.
+  for (const auto& [reason, count] : failures) EXPECT_EQ(reason, "lost track") << count << "x";
+  EXPECT_GE(ok, cycles * 4 / 10);
+  if (cycles >= 100) {
+    EXPECT_GE(ok_last_100, 30);
+  }
   if (cycles >= 100) {
     EXPECT_LE(rss_end, rss_after_50 * 11 / 10);
   }
