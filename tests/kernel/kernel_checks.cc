@@ -132,6 +132,25 @@ class FeedThread {
   std::string error_;
 };
 
+// Reads until `n` non-empty frames arrived or `limit` passed, with reads of `timeout`. With
+// `lost`, stops at the first error and stores it there.
+int CountFrames(FrameSource& source, int n, std::chrono::seconds limit, std::chrono::milliseconds timeout,
+                std::string* lost) {
+  int got = 0;
+  const auto end = Clock::now() + limit;
+  while (got < n && Clock::now() < end) {
+    Frame f;
+    std::string error;
+    const ReadStatus s = source.Read(&f, timeout, &error);
+    if (s == ReadStatus::kFrame && !f.image.empty()) ++got;
+    if (s == ReadStatus::kError && lost) {
+      *lost = error;
+      return got;
+    }
+  }
+  return got;
+}
+
 // Dataset -> feeder -> v4l2loopback -> V4l2Source: each frame read back equals a fed frame
 // bit for bit (GREY: the gray bytes fed; YUYV: the YUYV bytes fed, compared after the same
 // conversion and on the raw luma).
@@ -291,19 +310,7 @@ int CheckUnplug(const std::map<std::string, std::string>& a) {
   V4l2Source source(options);
   if (std::string e = source.Open(); !e.empty()) return Report(name, false, e);
   auto read_frames = [&](int n, std::chrono::seconds limit, std::string* lost) {
-    int got = 0;
-    const auto end = Clock::now() + limit;
-    while (got < n && Clock::now() < end) {
-      Frame f;
-      std::string error;
-      const ReadStatus s = source.Read(&f, 500ms, &error);
-      if (s == ReadStatus::kFrame) ++got;
-      if (s == ReadStatus::kError && lost) {
-        *lost = error;
-        return got;
-      }
-    }
-    return got;
+    return CountFrames(source, n, limit, 500ms, lost);
   };
   const int before = read_frames(2, 20s, nullptr);
   std::ofstream(driver_dir + "/unbind") << dev_name;
@@ -376,19 +383,7 @@ int CheckLoopbackRemove(const std::map<std::string, std::string>& a) {
   const std::vector<cv::Mat> frames = ReadFrames(a.at("--frames"));
   if (frames.empty()) return Report(name, false, "no frames");
   auto read_frames = [](V4l2Source& source, int n, std::chrono::seconds limit, std::string* lost) {
-    int got = 0;
-    const auto end = Clock::now() + limit;
-    while (got < n && Clock::now() < end) {
-      Frame f;
-      std::string error;
-      const ReadStatus s = source.Read(&f, 200ms, &error);
-      if (s == ReadStatus::kFrame) ++got;
-      if (s == ReadStatus::kError && lost) {
-        *lost = error;
-        return got;
-      }
-    }
-    return got;
+    return CountFrames(source, n, limit, 200ms, lost);
   };
   auto feed = std::make_unique<FeedThread>(device, frames, PixelFormat::kGrey, 10);
   if (std::string e = feed->Start(); !e.empty()) return Report(name, false, e);
@@ -481,19 +476,7 @@ int CheckLibcameraUnplug(const std::map<std::string, std::string>& a) {
   LibcameraSource source(o);
   if (std::string e = source.Open(); !e.empty()) return Report("libcamera-worker-crash", false, e);
   auto read_frames = [&](int n, std::chrono::seconds limit, std::string* lost) {
-    int got = 0;
-    const auto end = Clock::now() + limit;
-    while (got < n && Clock::now() < end) {
-      Frame f;
-      std::string error;
-      const ReadStatus s = source.Read(&f, 1000ms, &error);
-      if (s == ReadStatus::kFrame && f.image.size().area() > 0) ++got;
-      if (s == ReadStatus::kError && lost) {
-        *lost = error;
-        return got;
-      }
-    }
-    return got;
+    return CountFrames(source, n, limit, 1000ms, lost);
   };
   // 1. The worker dies (SIGKILL stands in for libcamera crashing).
   const int before = read_frames(2, 60s, nullptr);
