@@ -195,19 +195,25 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   result.rotation = result.cheirality.pose.rotation;
   result.translation = result.cheirality.pose.translation;
 
-  // 3. LM on the Sampson error over the 5 dof of (R, t), then the inliers again.
+  // 3. LM on the Sampson error over the 5 dof of (R, t), then the inliers again, until the
+  // inlier set is stable (H&Z algorithm 11.4 step (v): iterate until the number of
+  // correspondences is stable). Measured on the TUM pairs against two fixed rounds: depth
+  // (0, 3) 1.23 -> 1.10 %, step-2/3 p90 tails lower, step-1 medians within seed noise.
   const double focal = 0.5 * (K(0, 0) + K(1, 1));
   const double threshold = options.ransac_threshold_px / focal;
   std::vector<int> inliers = result.ransac_f.inliers;
-  for (int round = 0; round < 2; ++round) {
+  for (int round = 0; round < 10; ++round) {
     RefinePoseSampson(xa, xb, inliers, &result.rotation, &result.translation);
     const Eigen::Matrix3d e = Skew(result.translation) * result.rotation;
-    inliers.clear();
+    std::vector<int> next;
     for (size_t i = 0; i < xa.size(); ++i) {
       if (std::abs(SampsonError(e, xa[i], xb[i])) < threshold) {
-        inliers.push_back(static_cast<int>(i));
+        next.push_back(static_cast<int>(i));
       }
     }
+    const bool same = next == inliers;
+    inliers = std::move(next);
+    if (same) break;
   }
   result.inliers = inliers;
   result.num_inliers = static_cast<int>(inliers.size());
