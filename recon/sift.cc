@@ -5,6 +5,7 @@
 // gradients come from per-layer maps computed once (only for layers that hold keypoints), and
 // atan2 / exp are polynomial approximations.
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <array>
 #include <cfloat>
@@ -42,45 +43,27 @@ struct OctaveKeypoint {
   float scale = 0;  // Sigma in octave pixels.
 };
 
-// 2x upsampling by bilinear interpolation with pixel centres aligned (OpenCV's INTER_LINEAR:
-// dst x = 2i -> src i - 0.25, 2i + 1 -> src i + 0.25), edges replicated.
-void Upsample2(const cv::Mat& gray, Plane* out_plane) {
-  const int w = gray.cols, h = gray.rows;
-  out_plane->Resize(2 * w, 2 * h);
-  Plane& out = *out_plane;
-  std::vector<float> vert(static_cast<size_t>(w));
-  for (int Y = 0; Y < 2 * h; ++Y) {
-    const int i = Y / 2;
-    const int j = (Y % 2 == 0) ? std::max(i - 1, 0) : std::min(i + 1, h - 1);
-    const uint8_t* a = gray.ptr<uint8_t>(i);
-    const uint8_t* b = gray.ptr<uint8_t>(j);
-    for (int x = 0; x < w; ++x) vert[static_cast<size_t>(x)] = 0.75f * a[x] + 0.25f * b[x];
-    float* o = out.Row(Y);
-    for (int x = 0; x < w; ++x) {
-      const float c = vert[static_cast<size_t>(x)];
-      o[2 * x] = 0.75f * c + 0.25f * vert[static_cast<size_t>(std::max(x - 1, 0))];
-      o[2 * x + 1] = 0.75f * c + 0.25f * vert[static_cast<size_t>(std::min(x + 1, w - 1))];
-    }
-  }
-}
+// An OpenCV header over a plane's memory (rows contiguous), so cv:: functions read and write it
+// in place (cv::Mat has no read-only header; sources are only read).
+cv::Mat AsMat(const Plane& p) { return cv::Mat(p.h, p.w, CV_32F, const_cast<float*>(p.px.get())); }
 
-void ToPlane(const cv::Mat& gray, Plane* out) {
-  out->Resize(gray.cols, gray.rows);
-  for (int y = 0; y < gray.rows; ++y) {
-    const uint8_t* s = gray.ptr<uint8_t>(y);
-    float* d = out->Row(y);
-    for (int x = 0; x < gray.cols; ++x) d[x] = s[x];
+// The 8-bit image as floats, at `scale` times its size: 2 (bilinear, OpenCV's INTER_LINEAR, as
+// cv::SIFT doubles its input) or 1.
+void ToPlane(const cv::Mat& gray, int scale, Plane* out) {
+  out->Resize(gray.cols * scale, gray.rows * scale);
+  if (scale == 1) {
+    gray.convertTo(AsMat(*out), CV_32F);
+    return;
   }
+  cv::Mat f;
+  gray.convertTo(f, CV_32F);
+  cv::resize(f, AsMat(*out), AsMat(*out).size(), 0, 0, cv::INTER_LINEAR);
 }
 
 // Every other pixel (OpenCV's INTER_NEAREST halving): the next octave's first layer.
 void Decimate(const Plane& src, Plane* out) {
   out->Resize(src.w / 2, src.h / 2);
-  for (int y = 0; y < out->h; ++y) {
-    const float* s = src.Row(2 * y);
-    float* d = out->Row(y);
-    for (int x = 0; x < out->w; ++x) d[x] = s[2 * x];
-  }
+  cv::resize(AsMat(src), AsMat(*out), AsMat(*out).size(), 0, 0, cv::INTER_NEAREST);
 }
 
 // Buffers kept per thread between calls: the pyramid of a 640x480 image with its doubled first
@@ -93,31 +76,6 @@ struct Workspace {
   DescriptorSamples samples;
 };
 
-// Solves A x = b (3x3, symmetric) by Gaussian elimination with partial pivoting.
-bool Solve3(std::array<std::array<double, 3>, 3> a, std::array<double, 3> b,
-            std::array<double, 3>* x) {
-  for (int k = 0; k < 3; ++k) {
-    int p = k;
-    for (int i = k + 1; i < 3; ++i) {
-      if (std::abs(a[i][k]) > std::abs(a[p][k])) p = i;
-    }
-    if (std::abs(a[p][k]) < 1e-12) return false;
-    std::swap(a[k], a[p]);
-    std::swap(b[k], b[p]);
-    for (int i = k + 1; i < 3; ++i) {
-      const double f = a[i][k] / a[k][k];
-      for (int j = k; j < 3; ++j) a[i][j] -= f * a[k][j];
-      b[i] -= f * b[k];
-    }
-  }
-  for (int k = 2; k >= 0; --k) {
-    double s = b[k];
-    for (int j = k + 1; j < 3; ++j) s -= a[k][j] * (*x)[j];
-    (*x)[k] = s / a[k][k];
-  }
-  return true;
-}
-
 // Lowe 2004 Sec. 4 (after Brown & Lowe 2002): fit a 3D quadratic to D around the sample, move
 // to the neighbour while the offset exceeds 0.5 in any dimension, then reject low contrast
 // (|D(x^)| * layers < threshold, OpenCV's scaling) and edges (Sec. 4.1, tr^2/det >= (r+1)^2/r).
@@ -126,30 +84,32 @@ bool Refine(const std::vector<Plane>& dog, int layers, double contrast_threshold
   constexpr double kScale = 1.0 / 255, kD1 = 0.5 * kScale, kD2 = kScale, kDx = 0.25 * kScale;
   int layer = kp->layer, r = kp->r, c = kp->c;
   const int w = dog[0].w, h = dog[0].h;
-  std::array<double, 3> x{0, 0, 0}, grad{0, 0, 0};
+  Eigen::Vector3d x = Eigen::Vector3d::Zero(), grad = Eigen::Vector3d::Zero();
+  double dxx = 0, dyy = 0, dxy = 0;  // The 2-D Hessian at the final sample, for the edge test.
   int step = 0;
   for (; step < kMaxInterpSteps; ++step) {
     const Plane& img = dog[static_cast<size_t>(layer)];
     const Plane& prv = dog[static_cast<size_t>(layer - 1)];
     const Plane& nxt = dog[static_cast<size_t>(layer + 1)];
-    grad = {(img.At(r, c + 1) - img.At(r, c - 1)) * kD1,
-            (img.At(r + 1, c) - img.At(r - 1, c)) * kD1, (nxt.At(r, c) - prv.At(r, c)) * kD1};
+    grad << (img.At(r, c + 1) - img.At(r, c - 1)) * kD1,
+        (img.At(r + 1, c) - img.At(r - 1, c)) * kD1, (nxt.At(r, c) - prv.At(r, c)) * kD1;
     const double v2 = img.At(r, c) * 2.0;
-    const double dxx = (img.At(r, c + 1) + img.At(r, c - 1) - v2) * kD2;
-    const double dyy = (img.At(r + 1, c) + img.At(r - 1, c) - v2) * kD2;
+    dxx = (img.At(r, c + 1) + img.At(r, c - 1) - v2) * kD2;
+    dyy = (img.At(r + 1, c) + img.At(r - 1, c) - v2) * kD2;
     const double dss = (nxt.At(r, c) + prv.At(r, c) - v2) * kD2;
-    const double dxy = (img.At(r + 1, c + 1) - img.At(r + 1, c - 1) - img.At(r - 1, c + 1) +
-                        img.At(r - 1, c - 1)) *
-                       kDx;
+    dxy = (img.At(r + 1, c + 1) - img.At(r + 1, c - 1) - img.At(r - 1, c + 1) +
+           img.At(r - 1, c - 1)) *
+          kDx;
     const double dxs =
         (nxt.At(r, c + 1) - nxt.At(r, c - 1) - prv.At(r, c + 1) + prv.At(r, c - 1)) * kDx;
     const double dys =
         (nxt.At(r + 1, c) - nxt.At(r - 1, c) - prv.At(r + 1, c) + prv.At(r - 1, c)) * kDx;
-    std::array<double, 3> sol{0, 0, 0};
-    if (!Solve3({{{dxx, dxy, dxs}, {dxy, dyy, dys}, {dxs, dys, dss}}}, grad, &sol)) return false;
-    x = {-sol[0], -sol[1], -sol[2]};
-    if (std::abs(x[0]) < 0.5 && std::abs(x[1]) < 0.5 && std::abs(x[2]) < 0.5) break;
-    if (std::abs(x[0]) > 1e6 || std::abs(x[1]) > 1e6 || std::abs(x[2]) > 1e6) return false;
+    Eigen::Matrix3d hessian;
+    hessian << dxx, dxy, dxs, dxy, dyy, dys, dxs, dys, dss;
+    x = -hessian.partialPivLu().solve(grad);
+    if (!x.allFinite()) return false;
+    if (x.cwiseAbs().maxCoeff() < 0.5) break;
+    if (x.cwiseAbs().maxCoeff() > 1e6) return false;
     c += static_cast<int>(std::lround(x[0]));
     r += static_cast<int>(std::lround(x[1]));
     layer += static_cast<int>(std::lround(x[2]));
@@ -160,15 +120,8 @@ bool Refine(const std::vector<Plane>& dog, int layers, double contrast_threshold
   }
   if (step >= kMaxInterpSteps) return false;
   const Plane& img = dog[static_cast<size_t>(layer)];
-  const double t = grad[0] * x[0] + grad[1] * x[1] + grad[2] * x[2];
-  const double contr = img.At(r, c) * kScale + t * 0.5;
+  const double contr = img.At(r, c) * kScale + grad.dot(x) * 0.5;
   if (std::abs(contr) * layers < contrast_threshold) return false;
-  const double v2 = img.At(r, c) * 2.0;
-  const double dxx = (img.At(r, c + 1) + img.At(r, c - 1) - v2) * kD2;
-  const double dyy = (img.At(r + 1, c) + img.At(r - 1, c) - v2) * kD2;
-  const double dxy =
-      (img.At(r + 1, c + 1) - img.At(r + 1, c - 1) - img.At(r - 1, c + 1) + img.At(r - 1, c - 1)) *
-      kDx;
   const double tr = dxx + dyy, det = dxx * dyy - dxy * dxy;
   if (det <= 0 || tr * tr * kEdgeThreshold >= (kEdgeThreshold + 1) * (kEdgeThreshold + 1) * det) {
     return false;
@@ -333,15 +286,15 @@ Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
   thread_local Workspace ws;
   float init_sigma = kInitSigma;
   if (first < 0) {
-    Upsample2(gray, &ws.input);
+    ToPlane(gray, 2, &ws.input);
     init_sigma = 2 * kInitSigma;
   } else if (first == 0) {
-    ToPlane(gray, &ws.input);
+    ToPlane(gray, 1, &ws.input);
   } else {
     cv::Mat small;
     const double f = std::ldexp(1.0, -first);
     cv::resize(gray, small, cv::Size(), f, f, cv::INTER_AREA);
-    ToPlane(small, &ws.input);
+    ToPlane(small, 1, &ws.input);
   }
   const double sig_diff = std::sqrt(std::max(kSigma * kSigma - init_sigma * init_sigma, 0.01));
   Blur(ws.input, GaussianHalfKernel(sig_diff), &ws.base);
