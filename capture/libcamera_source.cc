@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include "base/poll.h"
 #include "capture/libcamera_ipc.h"
 
 extern char** environ;
@@ -33,34 +34,13 @@ union WorkerMessage {
   lcipc::Text text;
 };
 
-int RemainingMs(Clock::time_point deadline) {
-  const auto ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-  return ms > 0 ? static_cast<int>(ms) : 0;
-}
-
 /// Waits for one worker message until `deadline`: > 0 its size, 0 EOF, -1 error, -2 timeout.
 long ReceiveBefore(int socket, Clock::time_point deadline, WorkerMessage* m,
                    std::vector<UniqueFd>* fds) {
-  pollfd p{socket, POLLIN, 0};
-  int r = 0;
-  do {
-    r = poll(&p, 1, RemainingMs(deadline));
-  } while (r < 0 && errno == EINTR);
+  const int r = PollReadable(socket, deadline);
   if (r == 0) return -2;
   if (r < 0) return -1;
   return lcipc::Receive(socket, m, sizeof(*m), fds);
-}
-
-/// A connected socket pair for a worker (both ends close-on-exec; Spawn dup2s the child's).
-std::string SocketPair(UniqueFd* parent, UniqueFd* child) {
-  int sv[2];
-  if (socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) != 0) {
-    return std::string("socketpair: ") + strerror(errno);
-  }
-  parent->reset(sv[0]);
-  child->reset(sv[1]);
-  return {};
 }
 
 std::string Ended(int status) {
@@ -74,14 +54,17 @@ std::string Ended(int status) {
 
 }  // namespace
 
-std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, int socket) {
+std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, UniqueFd* parent_socket) {
   Kill();
-  // dup2 onto the same number would keep close-on-exec: move the socket out of the way first.
-  UniqueFd moved;
-  if (socket == lcipc::kSocketFd) {
-    moved.reset(fcntl(socket, F_DUPFD_CLOEXEC, 10));
-    socket = moved.get();
+  parent_socket->reset();
+  int sv[2];
+  if (socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) != 0) {
+    return std::string("socketpair: ") + strerror(errno);
   }
+  UniqueFd parent(sv[0]), child(sv[1]);
+  // dup2 onto the same number would keep close-on-exec: move the child's end out of the way.
+  if (child.get() == lcipc::kSocketFd) child.reset(fcntl(sv[1], F_DUPFD_CLOEXEC, 10));
+  const int socket = child.get();
   // Checked here: a failed exec is not reported by posix_spawn everywhere (qemu-user: exit 127).
   if (access(argv[0].c_str(), X_OK) != 0) return "cannot start " + argv[0] + ": " + strerror(errno);
   posix_spawn_file_actions_t actions;
@@ -117,6 +100,7 @@ std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, int socke
   posix_spawn_file_actions_destroy(&actions);
   if (r != 0) return "cannot start " + command[0] + ": " + strerror(r);
   pid_ = pid;
+  *parent_socket = std::move(parent);  // The child's end closes here, in this process.
   return {};
 }
 
@@ -151,12 +135,9 @@ std::string LibcameraWorkerPath() {
 
 std::vector<std::string> ListLibcameraCameras(std::string* error) {
   std::vector<std::string> ids;
-  UniqueFd socket, child;
-  std::string e = SocketPair(&socket, &child);
+  UniqueFd socket;
   WorkerProcess worker;
-  if (e.empty()) e = worker.Spawn({LibcameraWorkerPath(), "--list"}, child.get());
-  child.reset();
-  if (!e.empty()) {
+  if (const std::string e = worker.Spawn({LibcameraWorkerPath(), "--list"}, &socket); !e.empty()) {
     if (error) *error = "libcamera: " + e;
     return ids;
   }
@@ -193,7 +174,7 @@ std::string LibcameraSource::Open() {
 }
 
 std::string LibcameraSource::OpenCamera() {
-  const std::string& want = id_.empty() ? options_.camera : id_;
+  const std::string& want = Name();
   const std::string where = "libcamera " + want + ": ";
   const std::string path = options_.worker.empty() ? LibcameraWorkerPath() : options_.worker;
   std::vector<std::string> argv = {path, "--camera", want};
@@ -202,14 +183,7 @@ std::string LibcameraSource::OpenCamera() {
                              std::to_string(options_.height)});
   }
   if (options_.format) argv.insert(argv.end(), {"--format", PixelFormatName(*options_.format)});
-  UniqueFd child;
-  std::string e = SocketPair(&socket_, &child);
-  if (e.empty()) e = worker_.Spawn(argv, child.get());
-  child.reset();
-  if (!e.empty()) {
-    socket_.reset();
-    return where + e;
-  }
+  if (const std::string e = worker_.Spawn(argv, &socket_); !e.empty()) return where + e;
   WorkerMessage m{};
   std::vector<UniqueFd> fds;
   const long n = ReceiveBefore(
@@ -277,10 +251,8 @@ std::string LibcameraSource::Lose(const std::string& why) {
   CloseCamera(false);
   recovery_.Lose();
   std::lock_guard lock(describe_mutex_);
-  description_ =
-      "libcamera:" + (id_.empty() ? options_.camera : id_) + " (lost: " + why + "; reopening)";
-  return "libcamera " + (id_.empty() ? options_.camera : id_) + ": camera lost (" + why +
-         "); reopening with back-off";
+  description_ = "libcamera:" + Name() + " (lost: " + why + "; reopening)";
+  return "libcamera " + Name() + ": camera lost (" + why + "); reopening with back-off";
 }
 
 ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout,
@@ -295,8 +267,7 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
     if (const std::string e = OpenCamera(); !e.empty()) {
       recovery_.AttemptFailed();
       std::lock_guard lock(describe_mutex_);
-      description_ = "libcamera:" + (id_.empty() ? options_.camera : id_) +
-                     " (lost; reopen failed: " + e + ")";
+      description_ = "libcamera:" + Name() + " (lost; reopen failed: " + e + ")";
       return ReadStatus::kTimeout;
     }
     recovery_.AttemptSucceeded();

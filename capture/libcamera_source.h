@@ -33,9 +33,10 @@ class WorkerProcess {
   WorkerProcess(const WorkerProcess&) = delete;
   WorkerProcess& operator=(const WorkerProcess&) = delete;
 
-  /// Starts `argv[0]` with `socket` as its fd 3 (lcipc::kSocketFd), behind the command prefix
-  /// in $MM_LIBCAMERA_WORKER_LAUNCHER if set (e.g. an emulator). Returns an error or "".
-  std::string Spawn(const std::vector<std::string>& argv, int socket);
+  /// Starts `argv[0]` connected by a SOCK_SEQPACKET pair: the child's end is its fd 3
+  /// (lcipc::kSocketFd), ours goes to `parent_socket`. Behind the command prefix in
+  /// $MM_LIBCAMERA_WORKER_LAUNCHER if set (e.g. an emulator). Returns an error or "".
+  std::string Spawn(const std::vector<std::string>& argv, UniqueFd* parent_socket);
   /// Waits up to `timeout` for the child to exit on its own, then kills it; reaps it.
   /// Returns how it ended ("exited 0", "killed by signal 11 (Segmentation fault)").
   std::string Reap(std::chrono::milliseconds timeout);
@@ -86,6 +87,8 @@ class LibcameraSource final : public FrameSource {
     size_t length = 0;
     size_t offset = 0;  ///< Of plane 0.
   };
+  /// The camera's resolved id once known, else the id or index asked for.
+  [[nodiscard]] const std::string& Name() const { return id_.empty() ? options_.camera : id_; }
   std::string OpenCamera();
   /// Ends the worker (politely when `stop`, else SIGKILL) and unmaps its buffers.
   void CloseCamera(bool stop);

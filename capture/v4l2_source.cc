@@ -13,6 +13,8 @@
 #include <sstream>
 #include <thread>
 
+#include "base/poll.h"
+
 namespace mm {
 namespace {
 
@@ -418,17 +420,12 @@ ReadStatus V4l2Source::Read(Frame* frame, std::chrono::milliseconds timeout, std
   }
 
   while (true) {
-    const auto now = Clock::now();
-    const int wait_ms = static_cast<int>(
-        std::max<int64_t>(0, std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now).count()));
-    pollfd pfd{fd_.get(), POLLIN, 0};
-    const int r = ::poll(&pfd, 1, wait_ms);
-    if (r < 0) {
-      if (errno == EINTR) continue;
+    const int revents = PollReadable(fd_.get(), deadline);
+    if (revents < 0) {
       if (error) *error = Lose("poll: " + Errno(errno));
       return ReadStatus::kError;
     }
-    if (r == 0) {
+    if (revents == 0) {
       if (recovery_.Silent()) {
         if (error) {
           *error = Lose("no frame for " + std::to_string(options_.lost_after_ms) + " ms");
@@ -444,11 +441,11 @@ ReadStatus V4l2Source::Read(Frame* frame, std::chrono::milliseconds timeout, std
     buf.memory = V4L2_MEMORY_MMAP;
     if (Xioctl(fd_.get(), VIDIOC_DQBUF, &buf) != 0) {
       const int err = errno;
-      if (err == EAGAIN && !(pfd.revents & (POLLERR | POLLHUP))) {
+      if (err == EAGAIN && !(revents & (POLLERR | POLLHUP))) {
         if (Clock::now() >= deadline) return ReadStatus::kTimeout;
         continue;
       }
-      const std::string why = (pfd.revents & POLLERR) && err == EAGAIN
+      const std::string why = (revents & POLLERR) && err == EAGAIN
                                   ? std::string("POLLERR")
                                   : "VIDIOC_DQBUF: " + Errno(err);
       if (error) *error = Lose(why);
