@@ -8,6 +8,14 @@
 
 namespace mm {
 
+std::string SiftImplName(SiftImpl impl) { return impl == SiftImpl::kOwn ? "own" : "opencv"; }
+
+std::optional<SiftImpl> ParseSiftImpl(const std::string& name) {
+  if (name == "own") return SiftImpl::kOwn;
+  if (name == "opencv") return SiftImpl::kOpenCv;
+  return std::nullopt;
+}
+
 std::string SiftOptions::Check() const {
   if (max_features < 0) return "max_features: must be >= 0";
   if (!(contrast_threshold > 0)) return "contrast_threshold: must be > 0";

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,11 @@ namespace mm {
 /// convention, Highway kernels; ~25 % faster per image on x86 with the same accuracy within
 /// RANSAC-seed noise, docs/recon_tuning.md).
 enum class SiftImpl { kOpenCv, kOwn };
+
+/// "opencv" or "own", the names the config file and `monomesh eval` use.
+std::string SiftImplName(SiftImpl impl);
+/// The implementation named `name`, or nullopt for any other text.
+std::optional<SiftImpl> ParseSiftImpl(const std::string& name);
 
 struct SiftOptions {
   SiftImpl impl = SiftImpl::kOwn;

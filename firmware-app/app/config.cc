@@ -144,11 +144,12 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
 
   const auto* recon = r.Table("recon", {"sift", "max_features", "contrast_threshold", "match_ratio",
                                         "ransac_threshold_px", "min_inliers", "max_depth_ratio"});
-  std::string sift = c.recon.sift.impl == SiftImpl::kOwn ? "own" : "opencv";
+  std::string sift = SiftImplName(c.recon.sift.impl);
   r.Get(recon, "recon", "sift", &sift);
-  r.Require(sift == "own" || sift == "opencv", recon, "recon", "sift",
+  const std::optional<SiftImpl> impl = ParseSiftImpl(sift);
+  r.Require(impl.has_value(), recon, "recon", "sift",
             "'" + sift + "' is not an implementation (own or opencv)");
-  c.recon.sift.impl = sift == "opencv" ? SiftImpl::kOpenCv : SiftImpl::kOwn;
+  c.recon.sift.impl = impl.value_or(c.recon.sift.impl);
   int64_t max_features = c.recon.sift.max_features;
   int64_t min_inliers = c.recon.two_view.min_inliers;
   r.Get(recon, "recon", "max_features", &max_features);

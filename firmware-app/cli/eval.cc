@@ -31,7 +31,7 @@ struct EvalArgs {
   double resize = EvalOptions{}.pair.sift.resize_factor;
   unsigned seed = EvalOptions{}.pair.two_view.seed;
   bool lo_ransac = EvalOptions{}.pair.two_view.lo_ransac;
-  std::string sift_impl = EvalOptions{}.pair.sift.impl == SiftImpl::kOwn ? "own" : "opencv";
+  std::string sift_impl = SiftImplName(EvalOptions{}.pair.sift.impl);
   bool quiet = false;
 };
 
@@ -75,7 +75,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.sift.resize_factor = args.resize;
   options.pair.two_view.seed = args.seed;
   options.pair.two_view.lo_ransac = args.lo_ransac;
-  options.pair.sift.impl = args.sift_impl == "own" ? SiftImpl::kOwn : SiftImpl::kOpenCv;
+  options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
@@ -142,7 +142,7 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--seed", args->seed, "RANSAC seed");
   cmd->add_option("--lo-ransac", args->lo_ransac, "LO-RANSAC for F (true / false)");
   cmd->add_option("--sift-impl", args->sift_impl, "SIFT implementation: opencv or own")
-      ->check(CLI::IsMember({"opencv", "own"}));
+      ->check(CLI::IsMember({SiftImplName(SiftImpl::kOpenCv), SiftImplName(SiftImpl::kOwn)}));
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
