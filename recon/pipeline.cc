@@ -22,7 +22,8 @@ cv::Mat ToGray(const cv::Mat& image) {
 }  // namespace
 
 std::string PairOptions::Check() const {
-  for (const std::string& problem : {sift.Check(), match.Check(), two_view.Check(), mesh.Check()}) {
+  for (const std::string& problem :
+       {sift.Check(), match.Check(), two_view.Check(), refinement.Check(), mesh.Check()}) {
     if (!problem.empty()) return problem;
   }
   return {};
@@ -57,7 +58,8 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
     return out;
   }
   auto start = Clock::now();
-  const Features features_b = ExtractSift(ToGray(image_b), options.sift);
+  const cv::Mat gray_b = ToGray(image_b);
+  const Features features_b = ExtractSift(gray_b, options.sift);
   out.times.features_b_s = SecondsSince(start);
   out.features_a = static_cast<int>(features_a.keypoints.size());
   out.features_b = static_cast<int>(features_b.keypoints.size());
@@ -79,17 +81,21 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
     pixels_b.emplace_back(pb.x, pb.y);
   }
   out.geometry = EstimateTwoView(pixels_a, pixels_b, camera.K(), options.two_view);
-  out.times.geometry_s = SecondsSince(start);
   if (!out.geometry.success) {
+    out.times.geometry_s = SecondsSince(start);
     out.failure_reason = out.geometry.failure_reason;
     return out;
   }
-
-  start = Clock::now();
   for (int index : out.geometry.point_correspondence) {
     out.point_pixels_a.push_back(pixels_a[static_cast<size_t>(index)]);
     out.point_pixels_b.push_back(pixels_b[static_cast<size_t>(index)]);
   }
+  out.refinement = RefinePoints(ToGray(image_a), gray_b, camera.K(), options.two_view,
+                                options.refinement, out.point_pixels_a, &out.point_pixels_b,
+                                &out.geometry);
+  out.times.geometry_s = SecondsSince(start);
+
+  start = Clock::now();
   out.mesh = BuildDelaunayMesh(out.geometry.points_in_cam_a, out.point_pixels_a, image_a.cols,
                                image_a.rows, options.mesh, &out.mesh_summary);
   if (image_a.type() == CV_8UC3) ColorVerticesFromTexture(image_a, &out.mesh);

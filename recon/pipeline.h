@@ -1,7 +1,8 @@
 #pragma once
 // Two keyframes -> relative pose, 3-D points and a textured mesh. The stages: SIFT on both
 // (undistorted) keyframes, ratio-test matching, relative pose and triangulation (two_view.h),
-// Delaunay mesh textured from keyframe A (mesh.h).
+// sub-pixel refinement of the points' observations in B (point_refinement.h), Delaunay mesh
+// textured from keyframe A (mesh.h).
 //
 // Thread-safety: pure function; reentrant.
 
@@ -11,6 +12,7 @@
 #include "calib/camera_model.h"
 #include "recon/features.h"
 #include "recon/mesh.h"
+#include "recon/point_refinement.h"
 #include "recon/two_view.h"
 
 namespace mm {
@@ -19,6 +21,7 @@ struct PairOptions {
   SiftOptions sift;
   MatchOptions match;
   TwoViewOptions two_view;
+  PointRefinementOptions refinement;
   MeshOptions mesh;
   [[nodiscard]] std::string Check() const;
 };
@@ -27,7 +30,7 @@ struct StageTimes {
   double features_a_s = 0;
   double features_b_s = 0;
   double matching_s = 0;
-  double geometry_s = 0;
+  double geometry_s = 0;  ///< Two-view geometry and the point refinement.
   double meshing_s = 0;
   [[nodiscard]] double total_s() const {
     return features_a_s + features_b_s + matching_s + geometry_s + meshing_s;
@@ -43,6 +46,7 @@ struct PairReconstruction {
   TwoViewResult geometry;
   std::vector<Eigen::Vector2d> point_pixels_a;  ///< Where each 3-D point was observed in A.
   std::vector<Eigen::Vector2d> point_pixels_b;  ///< Where each 3-D point was observed in B.
+  PointRefinementSummary refinement;
   Mesh mesh;
   MeshSummary mesh_summary;
   StageTimes times;

@@ -74,6 +74,10 @@ TEST(ReconstructPair, TumKeyframePairMatchesGroundTruth) {
     EXPECT_GT(r.mesh.vertices.size(), 200u);
     EXPECT_GT(r.mesh.triangles.size(), 300u);
     EXPECT_EQ(r.mesh.colors.size(), r.mesh.vertices.size());
+    // The observations in B were refined (Lucas-Kanade) and the points triangulated again.
+    EXPECT_EQ(r.refinement.points, static_cast<int>(r.geometry.points_in_cam_a.size()));
+    EXPECT_GT(r.refinement.refined, r.refinement.points / 2);
+    EXPECT_EQ(r.point_pixels_b.size(), r.geometry.points_in_cam_a.size());
   }
 }
 

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 namespace mm {
 namespace {
@@ -51,7 +52,11 @@ class Reader {
     if (table == nullptr) return;
     const toml::node* node = table->get(key);
     if (node == nullptr) return;
-    const auto v = node->value<T>();
+    // A boolean must be written true / false (toml++'s value<bool> also takes integers).
+    const auto v = [&] {
+      if constexpr (std::is_same_v<T, bool>) return node->value_exact<bool>();
+      else return node->value<T>();
+    }();
     if (!v) Fail(node, tname + "." + key, "wrong type");
     *out = *v;
   }
@@ -143,7 +148,8 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 
   const auto* recon = r.Table("recon", {"sift", "max_features", "contrast_threshold", "match_ratio",
-                                        "ransac_threshold_px", "min_inliers", "max_depth_ratio"});
+                                        "ransac_threshold_px", "min_inliers", "max_depth_ratio",
+                                        "refine_points"});
   std::string sift = SiftImplName(c.recon.sift.impl);
   r.Get(recon, "recon", "sift", &sift);
   const std::optional<SiftImpl> impl = ParseSiftImpl(sift);
@@ -158,6 +164,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.Get(recon, "recon", "ransac_threshold_px", &c.recon.two_view.ransac_threshold_px);
   r.Get(recon, "recon", "min_inliers", &min_inliers);
   r.Get(recon, "recon", "max_depth_ratio", &c.recon.mesh.max_depth_ratio);
+  r.Get(recon, "recon", "refine_points", &c.recon.refinement.enabled);
   c.recon.sift.max_features = static_cast<int>(max_features);
   c.recon.two_view.min_inliers = static_cast<int>(min_inliers);
   if (const std::string problem = c.recon.Check(); !problem.empty()) {

@@ -33,6 +33,7 @@ TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
   EXPECT_EQ(c.recon.match.ratio, defaults.recon.match.ratio);
   EXPECT_EQ(c.recon.two_view.ransac_threshold_px, defaults.recon.two_view.ransac_threshold_px);
   EXPECT_EQ(c.recon.two_view.min_inliers, defaults.recon.two_view.min_inliers);
+  EXPECT_EQ(c.recon.refinement.enabled, defaults.recon.refinement.enabled);
   EXPECT_EQ(c.spool_dir, defaults.spool_dir);
   EXPECT_EQ(c.spool_max_entries, defaults.spool_max_entries);
   EXPECT_EQ(c.control_socket, defaults.control_socket);
@@ -69,6 +70,11 @@ TEST(DaemonConfig, ErrorsNameTheKey) {
               "keyframes.timeout_s': wrong type");
   ExpectError(std::string(kMinimal) + "[recon]\nmatch_ratio = 1.5\n", "recon.match_ratio");
   ExpectError(std::string(kMinimal) + "[recon]\nsift = \"surf\"\n", "recon.sift");
+  ExpectError(std::string(kMinimal) + "[recon]\nrefine_points = 1\n",
+              "recon.refine_points': wrong type");
+  EXPECT_FALSE(ParseDaemonConfig(std::string(kMinimal) + "[recon]\nrefine_points = false\n",
+                                 "/x/d.toml")
+                   .recon.refinement.enabled);
   ExpectError(std::string(kMinimal) + "[log]\nlevel = \"loud\"\n", "log.level");
   ExpectError("[camera]\ncalibration = \"c.toml\"\n", "camera.uri");
   ExpectError("[camera\n", "not valid TOML");

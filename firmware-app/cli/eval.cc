@@ -31,6 +31,7 @@ struct EvalArgs {
   double resize = EvalOptions{}.pair.sift.resize_factor;
   unsigned seed = EvalOptions{}.pair.two_view.seed;
   bool lo_ransac = EvalOptions{}.pair.two_view.lo_ransac;
+  bool refine_points = EvalOptions{}.pair.refinement.enabled;
   std::string sift_impl = SiftImplName(EvalOptions{}.pair.sift.impl);
   bool quiet = false;
 };
@@ -75,6 +76,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.sift.resize_factor = args.resize;
   options.pair.two_view.seed = args.seed;
   options.pair.two_view.lo_ransac = args.lo_ransac;
+  options.pair.refinement.enabled = args.refine_points;
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
@@ -141,6 +143,8 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--sift-resize", args->resize, "Resize keyframes by this factor before SIFT");
   cmd->add_option("--seed", args->seed, "RANSAC seed");
   cmd->add_option("--lo-ransac", args->lo_ransac, "LO-RANSAC for F (true / false)");
+  cmd->add_option("--refine-points", args->refine_points,
+                  "Lucas-Kanade refinement of the points' observations in B (true / false)");
   cmd->add_option("--sift-impl", args->sift_impl, "SIFT implementation: opencv or own")
       ->check(CLI::IsMember({SiftImplName(SiftImpl::kOpenCv), SiftImplName(SiftImpl::kOwn)}));
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
