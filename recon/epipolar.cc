@@ -518,6 +518,12 @@ Eigen::Vector3d RefineTriangulation(const Eigen::Vector3d& initial, const Eigen:
   return p.allFinite() ? p : initial;
 }
 
+Eigen::Vector2d ReprojectionErrorsPx(const Eigen::Matrix3d& k, const Eigen::Vector3d& p_a,
+                                     const Eigen::Vector3d& p_b, const Eigen::Vector2d& pixel_a,
+                                     const Eigen::Vector2d& pixel_b) {
+  return {((k * p_a).hnormalized() - pixel_a).norm(), ((k * p_b).hnormalized() - pixel_b).norm()};
+}
+
 double TriangulationAngleDeg(const Eigen::Vector3d& p_a, const RelativePose& pose) {
   const Eigen::Vector3d center_b = -pose.rotation.transpose() * pose.translation;
   const double c = p_a.normalized().dot((p_a - center_b).normalized());

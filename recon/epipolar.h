@@ -108,6 +108,13 @@ Eigen::Vector3d RefineTriangulation(const Eigen::Vector3d& initial, const Eigen:
                                     const Eigen::Vector2d& x_b, const RelativePose& pose,
                                     int iterations = 5);
 
+/// Reprojection errors (pixels) of one point in both views of a camera with intrinsics `k`:
+/// (|proj(k p_a) - pixel_a|, |proj(k p_b) - pixel_b|), with p_a and p_b the point in camera A
+/// and in camera B.
+Eigen::Vector2d ReprojectionErrorsPx(const Eigen::Matrix3d& k, const Eigen::Vector3d& p_a,
+                                     const Eigen::Vector3d& p_b, const Eigen::Vector2d& pixel_a,
+                                     const Eigen::Vector2d& pixel_b);
+
 /// Angle (degrees) between the rays from the two camera centres to point `p_a` (in camera A).
 double TriangulationAngleDeg(const Eigen::Vector3d& p_a, const RelativePose& pose);
 

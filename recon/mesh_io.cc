@@ -7,6 +7,8 @@
 #include <cstring>
 #include <sstream>
 
+#include "recon/epipolar.h"
+
 namespace mm {
 namespace {
 
@@ -152,8 +154,8 @@ ColmapText EncodeColmapText(const ColmapInput& in) {
     for (size_t i = 0; i < n; ++i) {
       const Eigen::Vector3d& p = in.points_in_cam_a[i];
       const Eigen::Vector3d pb = in.rotation_b_from_a * p + in.translation_b_from_a;
-      const double err = 0.5 * (((K * p).hnormalized() - in.pixels_a[i]).norm() +
-                                ((K * pb).hnormalized() - in.pixels_b[i]).norm());
+      const Eigen::Vector2d errors = ReprojectionErrorsPx(K, p, pb, in.pixels_a[i], in.pixels_b[i]);
+      const double err = 0.5 * (errors.x() + errors.y());
       const int r = has_colors ? in.colors_rgb[i][0] : 128;
       const int g = has_colors ? in.colors_rgb[i][1] : 128;
       const int b = has_colors ? in.colors_rgb[i][2] : 128;

@@ -81,10 +81,9 @@ PointRefinementSummary RefinePoints(const cv::Mat& gray_a, const cv::Mat& gray_b
       const Eigen::Vector2d xb = (k_inv * refined[j].homogeneous()).hnormalized();
       const Eigen::Vector3d q = RefineTriangulation(p, xa, xb, pose);
       const Eigen::Vector3d q_b = pose.rotation * q + pose.translation;
-      const double err = std::max(((K * q).hnormalized() - point_pixels_a[j]).norm(),
-                                  ((K * q_b).hnormalized() - refined[j]).norm());
+      const Eigen::Vector2d err = ReprojectionErrorsPx(K, q, q_b, point_pixels_a[j], refined[j]);
       if (q.allFinite() && q.z() > 0 && q_b.z() > 0 &&
-          err <= two_view.max_reprojection_error_after_ba_px &&
+          std::max(err.x(), err.y()) <= two_view.max_reprojection_error_after_ba_px &&
           TriangulationAngleDeg(q, pose) >= two_view.min_triangulation_angle_deg) {
         shifts.push_back((refined[j] - observed_b).norm());
         p = q;
@@ -92,9 +91,8 @@ PointRefinementSummary RefinePoints(const cv::Mat& gray_a, const cv::Mat& gray_b
       }
     }
     const Eigen::Vector3d p_b = pose.rotation * p + pose.translation;
-    const double err_a = ((K * p).hnormalized() - point_pixels_a[j]).norm();
-    const double err_b = ((K * p_b).hnormalized() - observed_b).norm();
-    sq_sum += 0.5 * (err_a * err_a + err_b * err_b);
+    const Eigen::Vector2d err = ReprojectionErrorsPx(K, p, p_b, point_pixels_a[j], observed_b);
+    sq_sum += 0.5 * (err.x() * err.x() + err.y() * err.y());
     angles.push_back(TriangulationAngleDeg(p, pose));
   }
   summary.refined = static_cast<int>(shifts.size());

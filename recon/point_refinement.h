@@ -10,7 +10,7 @@
 // Mikolajczyk, Matas, ICPR 2010: tracking back from B must return to A's position) and moves
 // less than `max_shift_px` is taken. The points are then triangulated again under the pose
 // from the bundle adjustment, which stays as it is: refined observations did not improve the
-// pose on the TUM pairs (rotation 0.30 -> 0.31-0.34 deg), but they do improve the depths of
+// pose on the TUM pairs (rotation 0.30 -> 0.31-0.35 deg), but they do improve the depths of
 // short-baseline points (docs/recon_tuning.md).
 //
 // Thread-safety: pure functions; reentrant.

@@ -74,28 +74,25 @@ mm::sift::Plane DoubledFrame() {
   return p;
 }
 
+// One Gaussian blur of the doubled frame, sigma = range(0) / 1000, by `blur` (Highway or the
+// scalar reference).
+template <typename BlurFn>
+void RunBlur(benchmark::State& state, BlurFn blur) {
+  const mm::sift::Plane src = DoubledFrame();
+  const std::vector<float> k =
+      mm::sift::GaussianHalfKernel(static_cast<double>(state.range(0)) / 1000);
+  mm::sift::Plane dst;
+  for (auto _ : state) {
+    blur(src, k, &dst);
+    benchmark::DoNotOptimize(dst.px.get());
+  }
+}
 void BM_BlurHighway(benchmark::State& state) {
-  const mm::sift::Plane src = DoubledFrame();
-  const std::vector<float> k =
-      mm::sift::GaussianHalfKernel(static_cast<double>(state.range(0)) / 1000);
-  mm::sift::Plane dst;
-  for (auto _ : state) {
-    mm::sift::Blur(src, k, &dst);
-    benchmark::DoNotOptimize(dst.px.get());
-  }
+  RunBlur(state, [](const mm::sift::Plane& src, const std::vector<float>& k,
+                    mm::sift::Plane* dst) { mm::sift::Blur(src, k, dst); });
 }
+void BM_BlurScalar(benchmark::State& state) { RunBlur(state, &mm::sift::BlurScalar); }
 BENCHMARK(BM_BlurHighway)->Arg(1226)->Arg(3090)->Unit(benchmark::kMillisecond);
-
-void BM_BlurScalar(benchmark::State& state) {
-  const mm::sift::Plane src = DoubledFrame();
-  const std::vector<float> k =
-      mm::sift::GaussianHalfKernel(static_cast<double>(state.range(0)) / 1000);
-  mm::sift::Plane dst;
-  for (auto _ : state) {
-    mm::sift::BlurScalar(src, k, &dst);
-    benchmark::DoNotOptimize(dst.px.get());
-  }
-}
 BENCHMARK(BM_BlurScalar)->Arg(1226)->Arg(3090)->Unit(benchmark::kMillisecond);
 
 }  // namespace

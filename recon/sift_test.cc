@@ -13,7 +13,12 @@
 namespace mm {
 namespace {
 
-const std::filesystem::path kRgb = std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office/rgb";
+// A keyframe of the bundled TUM sample (data/tum_office/rgb), 8-bit gray; empty if unreadable.
+cv::Mat BundledGray(const char* name) {
+  return cv::imread(
+      (std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office/rgb" / name).string(),
+      cv::IMREAD_GRAYSCALE);
+}
 
 sift::Plane RandomPlane(unsigned seed, int w, int h, float lo, float hi) {
   std::mt19937 rng(seed);
@@ -155,7 +160,7 @@ int Octave(const cv::KeyPoint& k) {
 // Own SIFT against cv::SIFT on a TUM keyframe: most keypoints coincide (position within 1 px,
 // same octave) and the descriptors of coinciding keypoints with the same orientation are close.
 TEST(SiftOwn, AgreesWithOpenCvOnTumKeyframe) {
-  const cv::Mat gray = cv::imread((kRgb / "1341847980.722988.png").string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat gray = BundledGray("1341847980.722988.png");
   ASSERT_FALSE(gray.empty());
   SiftOptions options;
   options.impl = SiftImpl::kOpenCv;
@@ -208,7 +213,7 @@ TEST(SiftOwn, AgreesWithOpenCvOnTumKeyframe) {
 
 // max_features keeps the strongest by response; the others are the full run's keypoints.
 TEST(SiftOwn, MaxFeaturesKeepsTheStrongest) {
-  const cv::Mat gray = cv::imread((kRgb / "1341847981.726650.png").string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat gray = BundledGray("1341847981.726650.png");
   ASSERT_FALSE(gray.empty());
   SiftOptions options;
   options.impl = SiftImpl::kOwn;
@@ -227,7 +232,7 @@ TEST(SiftOwn, MaxFeaturesKeepsTheStrongest) {
 // first_octave 0 / 1 start the pyramid natively at full / half resolution: their keypoints are
 // those of first_octave -1 from the same octave on (positions in the original pixels).
 TEST(SiftOwn, FirstOctaveIsNative) {
-  const cv::Mat gray = cv::imread((kRgb / "1341847980.722988.png").string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat gray = BundledGray("1341847980.722988.png");
   ASSERT_FALSE(gray.empty());
   SiftOptions options;
   options.impl = SiftImpl::kOwn;

@@ -236,9 +236,8 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
     p = RefineTriangulation(p, xa[u], xb[u], pose);
     const Eigen::Vector3d p_b = pose.rotation * p + pose.translation;
     if (!(p.z() > 0) || !(p_b.z() > 0) || !p.allFinite()) continue;
-    const double err_a = ((K * p).hnormalized() - pixels_a[u]).norm();
-    const double err_b = ((K * p_b).hnormalized() - pixels_b[u]).norm();
-    if (std::max(err_a, err_b) > options.max_reprojection_error_px) continue;
+    const Eigen::Vector2d err = ReprojectionErrorsPx(K, p, p_b, pixels_a[u], pixels_b[u]);
+    if (std::max(err.x(), err.y()) > options.max_reprojection_error_px) continue;
     // Low-angle points stay in the BA (they pin down the rotation); they are dropped from
     // the output after it.
     angles.push_back(TriangulationAngleDeg(p, pose));
@@ -279,9 +278,9 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
         const Eigen::Vector3d& p = problem.points[j];
         const Eigen::Vector3d p_b = result.rotation * p + result.translation;
         if (!(p.z() > 0) || !(p_b.z() > 0)) continue;
-        const double err = std::max(((K * p).hnormalized() - problem.observations_a[j]).norm(),
-                                    ((K * p_b).hnormalized() - problem.observations_b[j]).norm());
-        if (err > options.max_reprojection_error_after_ba_px) continue;
+        const Eigen::Vector2d err = ReprojectionErrorsPx(K, p, p_b, problem.observations_a[j],
+                                                         problem.observations_b[j]);
+        if (std::max(err.x(), err.y()) > options.max_reprojection_error_after_ba_px) continue;
         clean.points.push_back(p);
         clean.observations_a.push_back(problem.observations_a[j]);
         clean.observations_b.push_back(problem.observations_b[j]);
@@ -301,15 +300,15 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
     const Eigen::Vector3d& p = problem.points[j];
     const Eigen::Vector3d p_b = pose.rotation * p + pose.translation;
     if (!(p.z() > 0) || !(p_b.z() > 0)) continue;
-    const double err_a = ((K * p).hnormalized() - problem.observations_a[j]).norm();
-    const double err_b = ((K * p_b).hnormalized() - problem.observations_b[j]).norm();
-    if (std::max(err_a, err_b) > max_err) continue;
+    const Eigen::Vector2d err =
+        ReprojectionErrorsPx(K, p, p_b, problem.observations_a[j], problem.observations_b[j]);
+    if (std::max(err.x(), err.y()) > max_err) continue;
     const double angle = TriangulationAngleDeg(p, pose);
     if (angle < options.min_triangulation_angle_deg) continue;
     angles.push_back(angle);
     result.points_in_cam_a.push_back(p);
     result.point_correspondence.push_back(kept[j]);
-    sq_sum += 0.5 * (err_a * err_a + err_b * err_b);
+    sq_sum += 0.5 * (err.x() * err.x() + err.y() * err.y());
   }
   result.times.bundle_s = SecondsSince(start);
   if (!angles.empty()) result.median_triangulation_angle_deg = MedianOf(angles);
