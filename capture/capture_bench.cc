@@ -47,9 +47,8 @@ class SyntheticSource final : public FrameSource {
     const int64_t c0 = ThreadCpuNs();
     const std::string& raw = frames_[seq_ % frames_.size()];
     const auto* data = reinterpret_cast<const uint8_t*>(raw.data());
-    std::string e = format_ == PixelFormat::kMjpeg
-                        ? decoder_.Decode(data, raw.size(), gray_, &frame->image)
-                        : ConvertRaw(format_, data, raw.size(), width_, height_, 0, gray_, &frame->image);
+    std::string e =
+        ConvertFrame(format_, data, raw.size(), width_, height_, 0, gray_, &decoder_, &frame->image);
     *cpu_ns_ += ThreadCpuNs() - c0;
     if (!e.empty()) {
       *error = e;

@@ -296,11 +296,10 @@ ReadStatus LibcameraSource::Read(Frame* frame, std::chrono::milliseconds timeout
   const auto* data = static_cast<const uint8_t*>(map.addr) + map.offset;
   std::string convert_error;
   if (f.ok) {
-    const size_t size = map.length - map.offset;
-    convert_error = format_ == PixelFormat::kMjpeg
-                        ? decoder_.Decode(data, f.bytesused, options_.gray, &frame->image)
-                        : ConvertRaw(format_, data, size, width_, height_, stride_, options_.gray,
-                                     &frame->image);
+    // An MJPEG frame is bytesused long; a raw one fills the buffer from plane 0's offset.
+    const size_t size = format_ == PixelFormat::kMjpeg ? f.bytesused : map.length - map.offset;
+    convert_error = ConvertFrame(format_, data, size, width_, height_, stride_, options_.gray,
+                                 &decoder_, &frame->image);
   }
   // The buffer goes back to the worker; a dead worker shows at the next Read.
   lcipc::Command requeue{MsgType::kRequeue, f.index};

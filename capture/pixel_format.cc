@@ -206,4 +206,11 @@ std::string MjpegDecoder::Decode(const uint8_t* data, size_t size, bool gray, cv
   return {};
 }
 
+std::string ConvertFrame(PixelFormat format, const uint8_t* data, size_t size, int width,
+                         int height, size_t stride, bool gray, MjpegDecoder* decoder,
+                         cv::Mat* out) {
+  if (format == PixelFormat::kMjpeg) return decoder->Decode(data, size, gray, out);
+  return ConvertRaw(format, data, size, width, height, stride, gray, out);
+}
+
 }  // namespace mm

@@ -61,4 +61,11 @@ class MjpegDecoder {
   void* handle_ = nullptr;
 };
 
+/// One camera frame of any supported format to GRAY8 / BGR8: MJPEG through `decoder` (`size`
+/// = the JPEG's bytes), the raw formats through ConvertRaw. Returns an error message, empty on
+/// success.
+std::string ConvertFrame(PixelFormat format, const uint8_t* data, size_t size, int width,
+                         int height, size_t stride, bool gray, MjpegDecoder* decoder,
+                         cv::Mat* out);
+
 }  // namespace mm

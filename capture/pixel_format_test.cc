@@ -138,8 +138,26 @@ TEST(MjpegDecoder, MatchesImdecode) {
   ASSERT_EQ(out.size(), ref.size());
   EXPECT_LE(cv::norm(out, ref, cv::NORM_INF), 8.0);  // FASTDCT vs ISLOW.
   EXPECT_EQ(gray.type(), CV_8UC1);
+  cv::Mat via_frame;  // ConvertFrame sends MJPEG to the decoder.
+  ASSERT_EQ(ConvertFrame(PixelFormat::kMjpeg, jpeg.data(), jpeg.size(), 64, 48, 0, false, &decoder,
+                         &via_frame),
+            "");
+  EXPECT_TRUE(Same(via_frame, out));
   const std::vector<uint8_t> junk{1, 2, 3, 4};
   EXPECT_NE(decoder.Decode(junk.data(), junk.size(), false, &out).find("MJPEG"), std::string::npos);
+}
+
+// ConvertFrame sends the raw formats to ConvertRaw (MJPEG: MjpegDecoder.MatchesImdecode).
+TEST(ConvertFrame, RawFormatsGoToConvertRaw) {
+  MjpegDecoder decoder;
+  const std::vector<uint8_t> grey = RandomBytes(64 * 48, 5);
+  cv::Mat out;
+  ASSERT_EQ(ConvertFrame(PixelFormat::kGrey, grey.data(), grey.size(), 64, 48, 0, true, &decoder, &out),
+            "");
+  EXPECT_TRUE(Same(out, cv::Mat(48, 64, CV_8UC1, const_cast<uint8_t*>(grey.data()))));
+  EXPECT_NE(ConvertFrame(PixelFormat::kYuyv, grey.data(), 100, 64, 48, 0, false, &decoder, &out)
+                .find("short frame"),
+            std::string::npos);
 }
 
 TEST(Fourcc, NamesAndParsing) {

@@ -458,12 +458,8 @@ ReadStatus V4l2Source::Read(Frame* frame, std::chrono::milliseconds timeout, std
       const auto* data = static_cast<const uint8_t*>(mapped.addr);
       const size_t size = std::min<size_t>(buf.bytesused, mapped.length);
       frame->image = cv::Mat();
-      if (format_ == PixelFormat::kMjpeg) {
-        convert_error = decoder_.Decode(data, size, options_.gray, &frame->image);
-      } else {
-        convert_error = ConvertRaw(format_, data, size, width_, height_, stride_, options_.gray,
-                                   &frame->image);
-      }
+      convert_error = ConvertFrame(format_, data, size, width_, height_, stride_, options_.gray,
+                                   &decoder_, &frame->image);
     }
     // Give the buffer back before anything else can fail.
     if (Xioctl(fd_.get(), VIDIOC_QBUF, &buf) != 0) {
