@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <utility>
 
 namespace mm {
 namespace {
@@ -113,13 +116,215 @@ void RefinePoseSampson(const std::vector<Eigen::Vector2d>& xa, const std::vector
   *translation = t;
 }
 
-TwoViewResult Fail(TwoViewResult result, std::string reason) {
+TwoViewResult Fail(TwoViewResult result, TwoViewFailure failure, std::string reason) {
   result.success = false;
+  result.failure = failure;
   result.failure_reason = std::move(reason);
   return result;
 }
 
+TwoViewFailure FailureOf(PairKind kind) {
+  switch (kind) {
+    case PairKind::kGeneral:
+      return TwoViewFailure::kNone;
+    case PairKind::kPlanar:
+      return TwoViewFailure::kPlanar;
+    case PairKind::kRotation:
+      return TwoViewFailure::kRotation;
+    case PairKind::kNoParallax:
+      return TwoViewFailure::kNoParallax;
+  }
+  return TwoViewFailure::kNone;
+}
+
+std::string TooLittleParallax(double median_deg) {
+  return "too little parallax (median triangulation angle " + std::to_string(median_deg) + " deg)";
+}
+
+// Planar scene with translation: the pose from H (Faugeras & Lustman 1988 decomposition as in
+// Malis & Vargas 2007, cv::decomposeHomographyMat), as ORB-SLAM initialises from H when H
+// explains the pair. A candidate scores the correspondences it explains: Sampson error under
+// E = [t]x R below the threshold and the point in front of both cameras; the points off the
+// plane break the twofold ambiguity of the decomposition. The winner must be clear.
+CheiralityResult PoseFromHomography(const Eigen::Matrix3d& h, const Eigen::Matrix3d& k,
+                                    const std::vector<Eigen::Vector2d>& xa,
+                                    const std::vector<Eigen::Vector2d>& xb, double threshold,
+                                    const CheiralityOptions& options) {
+  CheiralityResult out;
+  cv::Mat h_cv, k_cv;
+  cv::eigen2cv(h, h_cv);
+  cv::eigen2cv(k, k_cv);
+  std::vector<cv::Mat> rotations, translations, normals;
+  const int n = cv::decomposeHomographyMat(h_cv, k_cv, rotations, translations, normals);
+  std::vector<std::pair<int, RelativePose>> scored;
+  for (int c = 0; c < n; ++c) {
+    RelativePose pose;
+    Eigen::Vector3d t;
+    cv::cv2eigen(rotations[static_cast<size_t>(c)], pose.rotation);
+    cv::cv2eigen(translations[static_cast<size_t>(c)], t);
+    if (!(t.norm() > 1e-9)) continue;  // No translation: nothing to triangulate.
+    pose.translation = t.normalized();
+    const Eigen::Matrix3d e = Skew(pose.translation) * pose.rotation;
+    int explained = 0;
+    for (size_t i = 0; i < xa.size(); ++i) {
+      if (!(std::abs(SampsonError(e, xa[i], xb[i])) < threshold)) continue;
+      const Eigen::Vector3d p = TriangulateLinear(xa[i], xb[i], pose);
+      const Eigen::Vector3d p_b = pose.rotation * p + pose.translation;
+      explained += p.z() > 0 && p_b.z() > 0 ? 1 : 0;
+    }
+    scored.emplace_back(explained, pose);
+  }
+  std::sort(scored.begin(), scored.end(),
+            [](const auto& x, const auto& y) { return x.first > y.first; });
+  if (scored.empty() || scored.front().first == 0) {
+    out.failure_reason = "planar scene: no pose from the homography explains the points";
+    return out;
+  }
+  if (scored.size() > 1 && scored[1].first > options.max_runner_up_ratio * scored.front().first) {
+    out.failure_reason = "planar scene: the homography's poses are ambiguous (" +
+                         std::to_string(scored.front().first) + " vs " +
+                         std::to_string(scored[1].first) + " points)";
+    return out;
+  }
+  out.success = true;
+  out.pose = scored.front().second;
+  out.in_front[0] = scored.front().first;
+  return out;
+}
+
 }  // namespace
+
+const char* TwoViewFailureName(TwoViewFailure failure) {
+  switch (failure) {
+    case TwoViewFailure::kNone:
+      return "none";
+    case TwoViewFailure::kInput:
+      return "input";
+    case TwoViewFailure::kTooFewMatches:
+      return "too_few_matches";
+    case TwoViewFailure::kNoModel:
+      return "no_model";
+    case TwoViewFailure::kNoParallax:
+      return "no_parallax";
+    case TwoViewFailure::kRotation:
+      return "rotation";
+    case TwoViewFailure::kPlanar:
+      return "planar";
+    case TwoViewFailure::kTooFewInliers:
+      return "too_few_inliers";
+    case TwoViewFailure::kCheirality:
+      return "cheirality";
+    case TwoViewFailure::kTooFewPoints:
+      return "too_few_points";
+  }
+  return "?";
+}
+
+bool MoreMotionMayCure(TwoViewFailure failure) {
+  return failure == TwoViewFailure::kNoParallax || failure == TwoViewFailure::kRotation ||
+         failure == TwoViewFailure::kPlanar || failure == TwoViewFailure::kCheirality;
+}
+
+TwoViewProbe ProbeTwoView(std::span<const Eigen::Vector2d> pixels_a,
+                          std::span<const Eigen::Vector2d> pixels_b, const Eigen::Matrix3d& K,
+                          const TwoViewOptions& options) {
+  TwoViewProbe probe;
+  auto fail = [&probe](TwoViewFailure failure, std::string reason) {
+    probe.failure = failure;
+    probe.failure_reason = std::move(reason);
+    return probe;
+  };
+  if (pixels_a.size() != pixels_b.size()) {
+    return fail(TwoViewFailure::kInput, "correspondence count mismatch");
+  }
+  if (static_cast<int>(pixels_a.size()) < options.min_inliers) {
+    return fail(TwoViewFailure::kTooFewMatches,
+                "too few matches (" + std::to_string(pixels_a.size()) + ")");
+  }
+
+  // 1. F and H by RANSAC in pixels; classify the pair.
+  RansacOptions ransac;
+  ransac.threshold_px = options.ransac_threshold_px;
+  ransac.confidence = options.ransac_confidence;
+  ransac.max_iterations = options.max_ransac_iterations;
+  ransac.seed = options.seed;
+  ransac.local_optimization = options.lo_ransac;
+  auto start = Clock::now();
+  probe.ransac_f = RansacFundamental(pixels_a, pixels_b, ransac);
+  probe.ransac_f_s = SecondsSince(start);
+  if (!probe.ransac_f.success) {
+    return fail(TwoViewFailure::kNoModel, "F: " + probe.ransac_f.failure_reason);
+  }
+  start = Clock::now();
+  ransac.seed = options.seed + 1;
+  ransac.refine_iterations = 0;
+  ransac.local_optimization = false;
+  ransac.threshold_px = options.classify.homography_threshold_px;
+  // H only serves the classification, which needs H to explain > 85 % of the points: such an
+  // H is found in ~15 samples (H&Z alg. 4.5), so 200 suffice.
+  ransac.max_iterations = std::min(ransac.max_iterations, 200);
+  probe.ransac_h = RansacHomography(pixels_a, pixels_b, ransac);
+  probe.ransac_h_s = SecondsSince(start);
+  probe.classification =
+      ClassifyPair(pixels_a, pixels_b, probe.ransac_f, probe.ransac_h, K, options.classify);
+  const bool planar = probe.classification.kind == PairKind::kPlanar && options.planar_from_h;
+  if (probe.classification.kind != PairKind::kGeneral && !planar) {
+    return fail(FailureOf(probe.classification.kind), probe.classification.explanation);
+  }
+  if (static_cast<int>(probe.ransac_f.inliers.size()) < options.min_inliers) {
+    return fail(TwoViewFailure::kTooFewInliers,
+                "too few F inliers (" + std::to_string(probe.ransac_f.inliers.size()) + ")");
+  }
+
+  // 2. E on the manifold, the four poses, cheirality over all inliers; for a planar scene
+  // (F ill-conditioned) the pose from H instead.
+  start = Clock::now();
+  const Eigen::Matrix3d k_inv = K.inverse();
+  std::vector<Eigen::Vector2d>& xa = probe.norm_a;
+  std::vector<Eigen::Vector2d>& xb = probe.norm_b;
+  xa.reserve(pixels_a.size());
+  xb.reserve(pixels_a.size());
+  for (size_t i = 0; i < pixels_a.size(); ++i) {
+    xa.push_back((k_inv * pixels_a[i].homogeneous()).hnormalized());
+    xb.push_back((k_inv * pixels_b[i].homogeneous()).hnormalized());
+  }
+  if (planar) {
+    const double focal = 0.5 * (K(0, 0) + K(1, 1));
+    probe.cheirality = PoseFromHomography(probe.ransac_h.model, K, xa, xb,
+                                          options.ransac_threshold_px / focal, options.cheirality);
+  }
+  if (!planar || !probe.cheirality.success) {
+    // A planar pair whose H poses stay ambiguous (nearly every point on the plane) still has
+    // F's points off the plane: F's pose is taken when its cheirality winner is clear.
+    const Eigen::Matrix3d essential = EssentialFromFundamental(probe.ransac_f.model, K);
+    CheiralityResult from_f =
+        SelectPoseByCheirality(essential, xa, xb, probe.ransac_f.inliers, options.cheirality);
+    if (!planar || from_f.success) probe.cheirality = std::move(from_f);
+  }
+  probe.pose_s = SecondsSince(start);
+  if (!probe.cheirality.success) {
+    return fail(TwoViewFailure::kCheirality, probe.cheirality.failure_reason);
+  }
+
+  // 3. The parallax test on the linear triangulation of the inliers in front.
+  std::vector<double> angles;
+  angles.reserve(probe.ransac_f.inliers.size());
+  for (int i : probe.ransac_f.inliers) {
+    const auto u = static_cast<size_t>(i);
+    const Eigen::Vector3d p = TriangulateLinear(xa[u], xb[u], probe.cheirality.pose);
+    const Eigen::Vector3d p_b =
+        probe.cheirality.pose.rotation * p + probe.cheirality.pose.translation;
+    if (!(p.z() > 0) || !(p_b.z() > 0) || !p.allFinite()) continue;
+    angles.push_back(TriangulationAngleDeg(p, probe.cheirality.pose));
+  }
+  probe.median_triangulation_angle_deg = MedianOf(angles);
+  if (probe.median_triangulation_angle_deg < options.min_median_triangulation_angle_deg) {
+    return fail(TwoViewFailure::kNoParallax,
+                TooLittleParallax(probe.median_triangulation_angle_deg));
+  }
+  probe.accepted = true;
+  return probe;
+}
 
 std::string TwoViewOptions::Check() const {
   if (!(ransac_threshold_px > 0)) return "ransac_threshold_px: must be > 0";
@@ -131,6 +336,9 @@ std::string TwoViewOptions::Check() const {
     return "max_reprojection_error_after_ba_px: must be > 0";
   }
   if (!(min_triangulation_angle_deg >= 0)) return "min_triangulation_angle_deg: must be >= 0";
+  if (!(min_median_triangulation_angle_deg >= 0)) {
+    return "min_median_triangulation_angle_deg: must be >= 0";
+  }
   for (const std::string& p : {bundle.Check(), cheirality.Check(), classify.Check()}) {
     if (!p.empty()) return p;
   }
@@ -142,56 +350,25 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
                               const TwoViewOptions& options) {
   TwoViewResult result;
   result.num_correspondences = static_cast<int>(pixels_a.size());
-  if (pixels_a.size() != pixels_b.size()) return Fail(result, "correspondence count mismatch");
-  if (static_cast<int>(pixels_a.size()) < options.min_inliers) {
-    return Fail(result, "too few matches (" + std::to_string(pixels_a.size()) + ")");
-  }
 
-  // 1. F and H by RANSAC in pixels; classify the pair.
-  RansacOptions ransac;
-  ransac.threshold_px = options.ransac_threshold_px;
-  ransac.confidence = options.ransac_confidence;
-  ransac.max_iterations = options.max_ransac_iterations;
-  ransac.seed = options.seed;
-  ransac.local_optimization = options.lo_ransac;
+  // 1-2. F and H by RANSAC, the classification, E and the pose by cheirality (the probe the
+  // keyframe gate applies too). Its parallax test on the linear triangulation is not applied
+  // here: the test below, after the refinement, decides.
+  TwoViewProbe probe = ProbeTwoView(pixels_a, pixels_b, K, options);
+  result.ransac_f = probe.ransac_f;
+  result.ransac_h = probe.ransac_h;
+  result.classification = probe.classification;
+  result.cheirality = probe.cheirality;
+  result.times.ransac_f_s = probe.ransac_f_s;
+  result.times.ransac_h_s = probe.ransac_h_s;
+  // Only the probe's own parallax test (after the pose) is left to the test below.
+  const bool pose_found = probe.cheirality.success && !probe.norm_a.empty();
+  if (!probe.accepted && !(probe.failure == TwoViewFailure::kNoParallax && pose_found)) {
+    return Fail(result, probe.failure, probe.failure_reason);
+  }
   auto start = Clock::now();
-  result.ransac_f = RansacFundamental(pixels_a, pixels_b, ransac);
-  result.times.ransac_f_s = SecondsSince(start);
-  if (!result.ransac_f.success) return Fail(result, "F: " + result.ransac_f.failure_reason);
-  start = Clock::now();
-  ransac.seed = options.seed + 1;
-  ransac.refine_iterations = 0;
-  ransac.local_optimization = false;
-  ransac.threshold_px = options.classify.homography_threshold_px;
-  // H only serves the classification, which needs H to explain > 85 % of the points: such an
-  // H is found in ~15 samples (H&Z alg. 4.5), so 200 suffice.
-  ransac.max_iterations = std::min(ransac.max_iterations, 200);
-  result.ransac_h = RansacHomography(pixels_a, pixels_b, ransac);
-  result.times.ransac_h_s = SecondsSince(start);
-  result.classification =
-      ClassifyPair(pixels_a, pixels_b, result.ransac_f, result.ransac_h, K, options.classify);
-  if (result.classification.kind != PairKind::kGeneral) {
-    return Fail(result, result.classification.explanation);
-  }
-  if (static_cast<int>(result.ransac_f.inliers.size()) < options.min_inliers) {
-    return Fail(result, "too few F inliers (" + std::to_string(result.ransac_f.inliers.size()) +
-                            ")");
-  }
-
-  // 2. E on the manifold, the four poses, cheirality over all inliers.
-  start = Clock::now();
-  const Eigen::Matrix3d k_inv = K.inverse();
-  std::vector<Eigen::Vector2d> xa, xb;
-  xa.reserve(pixels_a.size());
-  xb.reserve(pixels_a.size());
-  for (size_t i = 0; i < pixels_a.size(); ++i) {
-    xa.push_back((k_inv * pixels_a[i].homogeneous()).hnormalized());
-    xb.push_back((k_inv * pixels_b[i].homogeneous()).hnormalized());
-  }
-  const Eigen::Matrix3d essential = EssentialFromFundamental(result.ransac_f.model, K);
-  result.cheirality =
-      SelectPoseByCheirality(essential, xa, xb, result.ransac_f.inliers, options.cheirality);
-  if (!result.cheirality.success) return Fail(result, result.cheirality.failure_reason);
+  const std::vector<Eigen::Vector2d> xa = std::move(probe.norm_a);
+  const std::vector<Eigen::Vector2d> xb = std::move(probe.norm_b);
   result.rotation = result.cheirality.pose.rotation;
   result.translation = result.cheirality.pose.translation;
 
@@ -219,8 +396,8 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   result.num_inliers = static_cast<int>(inliers.size());
   result.times.pose_s = SecondsSince(start);
   if (result.num_inliers < options.min_inliers) {
-    return Fail(result, "too few inliers after refinement (" +
-                            std::to_string(result.num_inliers) + ")");
+    return Fail(result, TwoViewFailure::kTooFewInliers,
+                "too few inliers after refinement (" + std::to_string(result.num_inliers) + ")");
   }
 
   // 4. Triangulation: linear, then Gauss-Newton; cheirality, reprojection and angle checks.
@@ -251,13 +428,12 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   result.median_triangulation_angle_deg = MedianOf(angles);
   if (result.median_triangulation_angle_deg < options.min_median_triangulation_angle_deg) {
     result.classification.kind = PairKind::kNoParallax;
-    result.classification.explanation =
-        "too little parallax (median triangulation angle " +
-        std::to_string(result.median_triangulation_angle_deg) + " deg)";
-    return Fail(result, result.classification.explanation);
+    result.classification.explanation = TooLittleParallax(result.median_triangulation_angle_deg);
+    return Fail(result, TwoViewFailure::kNoParallax, result.classification.explanation);
   }
   if (static_cast<int>(kept.size()) < options.min_inliers) {
-    return Fail(result, "too few triangulated points (" + std::to_string(kept.size()) + ")");
+    return Fail(result, TwoViewFailure::kTooFewPoints,
+                "too few triangulated points (" + std::to_string(kept.size()) + ")");
   }
 
   // 5. Two-view BA; points above the reprojection limit after it are removed and BA runs
@@ -317,8 +493,9 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
         std::sqrt(sq_sum / static_cast<double>(result.points_in_cam_a.size()));
   }
   if (static_cast<int>(result.points_in_cam_a.size()) < options.min_inliers) {
-    return Fail(result, "too few points after bundle adjustment (" +
-                            std::to_string(result.points_in_cam_a.size()) + ")");
+    return Fail(result, TwoViewFailure::kTooFewPoints,
+                "too few points after bundle adjustment (" +
+                    std::to_string(result.points_in_cam_a.size()) + ")");
   }
   result.success = true;
   return result;

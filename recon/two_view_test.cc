@@ -58,6 +58,30 @@ TEST(EstimateTwoView, TinyBaselineFailsTheParallaxGate) {
       << PairKindName(r.classification.kind) << ": " << r.failure_reason;
 }
 
+// A wall seen with translation and a few things off it (400 points on the plane, 40 in the
+// volume): H explains > 85 %, F is ill-conditioned, the pose comes from H's decomposition (the
+// points off the plane break its twofold ambiguity) and is as accurate as for a general scene.
+TEST(EstimateTwoView, PlanarSceneTakesItsPoseFromTheHomography) {
+  auto s = MakePair(SmallRotation(), Eigen::Vector3d(-0.5, 0.05, 0.1), 0.5, 0.05, 4, 400,
+                    test::SceneShape::kPlane);
+  const auto off_plane =
+      MakePair(SmallRotation(), Eigen::Vector3d(-0.5, 0.05, 0.1), 0.5, 0.0, 5, 40);
+  s.pixels_a.insert(s.pixels_a.end(), off_plane.pixels_a.begin(), off_plane.pixels_a.end());
+  s.pixels_b.insert(s.pixels_b.end(), off_plane.pixels_b.begin(), off_plane.pixels_b.end());
+  const TwoViewResult r = EstimateTwoView(s.pixels_a, s.pixels_b, s.k, {});
+  ASSERT_TRUE(r.success) << r.failure_reason;
+  EXPECT_EQ(r.classification.kind, PairKind::kPlanar);
+  EXPECT_LT(RotationErrorDeg(r.rotation, s.rotation), 0.2);
+  EXPECT_LT(DirectionErrorDeg(r.translation, s.translation), 2.0);
+  EXPECT_GT(r.points_in_cam_a.size(), 200u);
+
+  TwoViewOptions refuse;
+  refuse.planar_from_h = false;
+  const TwoViewResult refused = EstimateTwoView(s.pixels_a, s.pixels_b, s.k, refuse);
+  EXPECT_FALSE(refused.success);
+  EXPECT_EQ(refused.failure, TwoViewFailure::kPlanar) << refused.failure_reason;
+}
+
 TEST(EstimateTwoView, TooFewMatchesFail) {
   const auto s = MakePair(SmallRotation(), Eigen::Vector3d(-0.5, 0, 0), 0.5, 0.0, 4, 20);
   const TwoViewResult r = EstimateTwoView(s.pixels_a, s.pixels_b, s.k, {});
