@@ -1,44 +1,28 @@
 #include "recon/keyframe_gate.h"
 
-#include <Eigen/Geometry>
-#include <Eigen/LU>
-#include <Eigen/SVD>
 #include <algorithm>
-#include <cmath>
-#include <numbers>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
 namespace mm {
 
-namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
-}  // namespace
-
 std::string KeyframeGateOptions::Check() const {
   if (!(parallax_deg > 0)) return "parallax_deg: must be > 0";
+  if (parallax_deg < two_view.min_median_triangulation_angle_deg) {
+    return "parallax_deg: must be >= the reconstruction's minimum median triangulation angle (" +
+           std::to_string(two_view.min_median_triangulation_angle_deg) +
+           " deg), or B would be refused";
+  }
   if (max_corners < 8) return "max_corners: must be >= 8";
   if (min_tracks < 8) return "min_tracks: must be >= 8";
   if (min_inliers < 8) return "min_inliers: must be >= 8";
-  if (!(max_homography_inlier_ratio > 0 && max_homography_inlier_ratio <= 1)) {
-    return "max_homography_inlier_ratio: must be in (0, 1]";
-  }
-  if (!(ransac_threshold_px > 0)) return "ransac_threshold_px: must be > 0";
+  if (early_b_tracks < 0) return "early_b_tracks: must be >= 0";
   if (ransac_iterations < 10) return "ransac_iterations: must be >= 10";
-  return {};
+  return two_view.Check();
 }
 
 KeyframeGate::KeyframeGate(const Eigen::Matrix3d& K, KeyframeGateOptions options)
-    : K_(K), K_inv_(K.inverse()), options_(options) {}
+    : K_(K), options_(options), target_parallax_deg_(options.parallax_deg) {}
 
 int KeyframeGate::Start(const cv::Mat& gray_a) {
   CV_Assert(gray_a.type() == CV_8UC1);
@@ -47,6 +31,7 @@ int KeyframeGate::Start(const cv::Mat& gray_a) {
                           options_.min_corner_distance_px);
   points_prev_ = points_a_;
   previous_ = gray_a.clone();
+  target_parallax_deg_ = options_.parallax_deg;
   return static_cast<int>(points_a_.size());
 }
 
@@ -91,62 +76,35 @@ GateDecision KeyframeGate::Update(const cv::Mat& gray) {
     return d;
   }
 
-  // Quick relative pose on normalized coordinates (K^-1 handles skew).
-  std::vector<cv::Point2d> na, nb;
-  std::vector<Eigen::Vector3d> rays_a, rays_b;
+  // The reconstruction's own test on the tracks (ProbeTwoView): same thresholds and
+  // classification, fewer RANSAC samples (tracks are mostly inliers; the gate runs per frame).
+  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
+  pixels_a.reserve(points_a_.size());
+  pixels_b.reserve(points_a_.size());
   for (size_t i = 0; i < points_a_.size(); ++i) {
-    const Eigen::Vector3d a = K_inv_ * Eigen::Vector3d(points_a_[i].x, points_a_[i].y, 1.0);
-    const Eigen::Vector3d b = K_inv_ * Eigen::Vector3d(points_prev_[i].x, points_prev_[i].y, 1.0);
-    na.emplace_back(a.x() / a.z(), a.y() / a.z());
-    nb.emplace_back(b.x() / b.z(), b.y() / b.z());
-    rays_a.push_back(a.normalized());
-    rays_b.push_back(b.normalized());
+    pixels_a.emplace_back(points_a_[i].x, points_a_[i].y);
+    pixels_b.emplace_back(points_prev_[i].x, points_prev_[i].y);
   }
-  const double focal = 0.5 * (K_(0, 0) + K_(1, 1));
-  const double threshold = options_.ransac_threshold_px / focal;
-  cv::theRNG().state = 0;
-  cv::Mat e_mask;
-  const cv::Mat e = cv::findEssentialMat(na, nb, cv::Mat::eye(3, 3, CV_64F), cv::RANSAC, 0.99,
-                                         threshold, options_.ransac_iterations, e_mask);
-  cv::Mat h_mask;
-  const cv::Mat h = cv::findHomography(na, nb, cv::RANSAC, threshold, h_mask,
-                                       options_.ransac_iterations, 0.99);
-  d.homography_inliers = h.empty() ? 0 : cv::countNonZero(h_mask);
-  if (e.rows != 3 || e.cols != 3) {
-    d.reason = "no essential fit";
-    return d;
-  }
-  d.essential_inliers = cv::countNonZero(e_mask);
-
-  // Rotation-compensated parallax. The best rotation-only explanation of the inlier tracks
-  // (Wahba's problem, solved by SVD; Markley 1988) leaves the angle between each track's ray and
-  // its ray from A rotated: what no camera rotation can produce. Pure rotation leaves ~0
-  // (measured: <= 0.02 deg over 30 warped frames); translation leaves the part of the
-  // triangulation angle a rotation cannot mimic (a lower bound on it: a rotation absorbs the
-  // common component of lateral motion).
-  std::vector<size_t> inliers;
-  for (size_t i = 0; i < rays_a.size(); ++i) {
-    if (e_mask.at<uint8_t>(static_cast<int>(i)) != 0) inliers.push_back(i);
-  }
-  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
-  for (size_t i : inliers) cross += rays_b[i] * rays_a[i].transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
-  fix(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  const Eigen::Matrix3d r_rot = svd.matrixU() * fix * svd.matrixV().transpose();
-  std::vector<double> parallax;
-  for (size_t i : inliers) {
-    const double c = std::clamp((r_rot * rays_a[i]).dot(rays_b[i]), -1.0, 1.0);
-    parallax.push_back(std::acos(c) * 180.0 / std::numbers::pi);
-  }
-  d.median_parallax_deg = Median(parallax);
-
-  if (d.essential_inliers < options_.min_inliers) {
-    d.reason = "too few inliers (" + std::to_string(d.essential_inliers) + ")";
-  } else if (d.homography_inliers >=
-             options_.max_homography_inlier_ratio * d.essential_inliers) {
-    d.reason = "a homography explains the motion (rotation or plane)";
-  } else if (d.median_parallax_deg < options_.parallax_deg) {
+  TwoViewOptions probe_options = options_.two_view;
+  probe_options.max_ransac_iterations =
+      std::min(probe_options.max_ransac_iterations, options_.ransac_iterations);
+  probe_options.min_inliers = options_.min_inliers;
+  const TwoViewProbe probe = ProbeTwoView(pixels_a, pixels_b, K_, probe_options);
+  d.essential_inliers =
+      probe.ransac_f.success ? static_cast<int>(probe.ransac_f.inliers.size()) : 0;
+  d.homography_inliers = probe.classification.h_inliers;
+  d.median_parallax_deg = probe.median_triangulation_angle_deg;
+  d.failure = probe.failure;
+  // The probe already held the angle against the reconstruction's minimum.
+  const bool running_out =
+      d.tracks < options_.early_b_tracks && target_parallax_deg_ <= options_.parallax_deg;
+  if (!probe.accepted) {
+    d.reason = probe.failure_reason;
+  } else if (running_out) {
+    d.verdict = GateDecision::Verdict::kTakeB;
+    d.reason = "tracks running out (" + std::to_string(d.tracks) +
+               "); the reconstruction's minimum is met";
+  } else if (d.median_parallax_deg < target_parallax_deg_) {
     d.reason = "not enough parallax yet";
   } else {
     d.verdict = GateDecision::Verdict::kTakeB;

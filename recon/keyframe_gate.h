@@ -1,37 +1,44 @@
 #pragma once
 // The keyframe gate: decides, frame by frame after keyframe A, when the camera has moved enough
 // for a good two-view reconstruction. Corners of A (Shi-Tomasi) are tracked frame to frame with
-// pyramidal Lucas-Kanade (Bouguet's KLT). On each frame a quick relative-pose fit on the tracks
-// gives the rotation-compensated parallax: the angle between each track's ray in the current
-// frame and its ray from A rotated by the estimated R (for a point at depth Z and baseline b this
-// is the triangulation angle, ~b/Z), so rotation alone never counts as baseline. Keyframe B is
-// taken once the median parallax passes the threshold with enough inliers and the essential
-// model clearly beats a homography (which explains a pure rotation or a plane as well).
+// pyramidal Lucas-Kanade (Bouguet's KLT), forward-backward checked. On each frame the tracks go
+// through the reconstruction's own acceptance test (ProbeTwoView, recon/two_view.h): F and H by
+// RANSAC, the pair classification (no parallax / pure rotation / planar), E = K^T F K, the pose
+// by cheirality and the median triangulation angle of the inliers. Keyframe B is taken when
+// that test passes and the median angle reaches `parallax_deg`, so the gate never takes a B the
+// reconstruction would refuse for the same reasons; rotation alone never counts as baseline.
 //
 // Thread-safety: thread-bound (one gate per capture, fed by one thread).
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
+#include "recon/two_view.h"
+
 namespace mm {
 
 struct KeyframeGateOptions {
-  /// Take B when the median rotation-compensated parallax passes this. Measured: 0.33 deg on
-  /// the bundled keyframe pair (0,1), whose median triangulation angle is 2.0 deg and which
-  /// reconstructs within 0.2 deg of ground truth; <= 0.02 deg for pure rotation; <= 0.07 deg
-  /// for 2 cm of translation at 1-2 m.
-  double parallax_deg = 0.3;
+  /// Take B when the median triangulation angle of the tracks' inliers under the gate's pose
+  /// fit reaches this (degrees): the measure the reconstruction refuses a pair by
+  /// (two_view.min_median_triangulation_angle_deg, which this must not be below). The margin
+  /// over it covers the SIFT points' angles differing from the tracks' (docs/recon_tuning.md).
+  double parallax_deg = 2.0;
+  /// The reconstruction's tests and thresholds (F and H RANSAC thresholds, the classification,
+  /// cheirality, the minimum median angle); the daemon copies its [recon] settings here.
+  /// max_ransac_iterations is capped by `ransac_iterations` (the gate runs every frame).
+  TwoViewOptions two_view;
   int max_corners = 400;       ///< Corners of A to track.
   double corner_quality = 0.01;  ///< Shi-Tomasi quality level (relative to the best corner).
   double min_corner_distance_px = 10.0;
   int min_tracks = 40;         ///< Fewer surviving tracks: the capture ends with "lost track".
-  int min_inliers = 30;        ///< Inliers of the essential fit needed to take B.
-  /// The essential model must explain the tracks clearly better than a homography: take B only
-  /// when homography inliers < this share of essential inliers.
-  double max_homography_inlier_ratio = 0.8;
-  double ransac_threshold_px = 1.0;  ///< For both fits.
+  /// When fewer than this many tracks survive (the view is leaving A's, e.g. turning a
+  /// corner), B is taken as soon as the reconstruction's own minimum angle is met, before the
+  /// track is lost, instead of waiting for `parallax_deg`.
+  int early_b_tracks = 100;
+  int min_inliers = 30;              ///< F inliers among the tracks needed to take B.
   int ransac_iterations = 200;       ///< Cap per fit (the gate runs every frame).
   int klt_window_px = 21;
   int klt_levels = 3;
@@ -45,11 +52,12 @@ struct GateDecision {
   enum class Verdict { kWait, kTakeB, kLostTrack };
   Verdict verdict = Verdict::kWait;
   int tracks = 0;                    ///< Tracks alive after this frame.
-  int essential_inliers = 0;
+  int essential_inliers = 0;         ///< F inliers among the tracks.
   int homography_inliers = 0;
-  /// Rotation-compensated parallax: the median angle between the tracks' rays and A's rays
-  /// rotated by the best-fitting rotation (what no camera rotation can produce).
+  /// Median triangulation angle of the inlier tracks under the gate's pose fit (degrees; 0
+  /// when the probe stopped before the pose).
   double median_parallax_deg = 0.0;
+  TwoViewFailure failure = TwoViewFailure::kNone;  ///< The probe's verdict on the tracks.
   std::string reason;                ///< Why B was not taken (or why the track was lost).
 };
 
@@ -64,11 +72,20 @@ class KeyframeGate {
   GateDecision Update(const cv::Mat& gray);
 
   [[nodiscard]] int tracks() const { return static_cast<int>(points_a_.size()); }
+  /// The surviving tracks: where each started in A and where it is in the last frame
+  /// (undistorted pixels, index-aligned).
+  [[nodiscard]] const std::vector<cv::Point2f>& track_origins_a() const { return points_a_; }
+  [[nodiscard]] const std::vector<cv::Point2f>& track_positions() const { return points_prev_; }
+
+  /// Raises the angle the next B must reach (a later B after the reconstruction refused one);
+  /// Start resets it to options.parallax_deg.
+  void RequireParallax(double deg) { target_parallax_deg_ = std::max(deg, options_.parallax_deg); }
+  [[nodiscard]] double required_parallax_deg() const { return target_parallax_deg_; }
 
  private:
   Eigen::Matrix3d K_;
-  Eigen::Matrix3d K_inv_;
   KeyframeGateOptions options_;
+  double target_parallax_deg_ = 0.0;
   cv::Mat previous_;                     // Last gray frame.
   std::vector<cv::Point2f> points_a_;    // Track origins in A.
   std::vector<cv::Point2f> points_prev_; // The same tracks in the previous frame.

@@ -1,6 +1,9 @@
 #include "recon/pipeline.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <map>
 #include <opencv2/imgproc.hpp>
 
 namespace mm {
@@ -19,6 +22,40 @@ cv::Mat ToGray(const cv::Mat& image) {
   return gray;
 }
 
+// Appends the tracks that are not a SIFT match already (no matched A pixel within
+// `duplicate_px`; a uniform grid of that cell size finds the neighbours).
+void AppendTracks(std::span<const TrackCorrespondence> tracks, double duplicate_px,
+                  std::vector<Eigen::Vector2d>* pixels_a, std::vector<Eigen::Vector2d>* pixels_b) {
+  if (tracks.empty()) return;
+  const double cell = std::max(duplicate_px, 1.0);
+  auto key = [cell](const Eigen::Vector2d& p) {
+    return std::pair<int64_t, int64_t>(static_cast<int64_t>(std::floor(p.x() / cell)),
+                                       static_cast<int64_t>(std::floor(p.y() / cell)));
+  };
+  std::map<std::pair<int64_t, int64_t>, std::vector<Eigen::Vector2d>> grid;
+  for (const Eigen::Vector2d& p : *pixels_a) grid[key(p)].push_back(p);
+  const double limit_sq = duplicate_px * duplicate_px;
+  for (const TrackCorrespondence& track : tracks) {
+    const auto [cx, cy] = key(track.pixel_a);
+    bool duplicate = false;
+    for (int64_t dx = -1; dx <= 1 && !duplicate; ++dx) {
+      for (int64_t dy = -1; dy <= 1 && !duplicate; ++dy) {
+        const auto it = grid.find({cx + dx, cy + dy});
+        if (it == grid.end()) continue;
+        for (const Eigen::Vector2d& p : it->second) {
+          if ((p - track.pixel_a).squaredNorm() <= limit_sq) {
+            duplicate = true;
+            break;
+          }
+        }
+      }
+    }
+    if (duplicate) continue;
+    pixels_a->push_back(track.pixel_a);
+    pixels_b->push_back(track.pixel_b);
+  }
+}
+
 }  // namespace
 
 std::string PairOptions::Check() const {
@@ -26,6 +63,7 @@ std::string PairOptions::Check() const {
        {sift.Check(), match.Check(), two_view.Check(), refinement.Check(), mesh.Check()}) {
     if (!problem.empty()) return problem;
   }
+  if (!(track_duplicate_px >= 0)) return "track_duplicate_px: must be >= 0";
   return {};
 }
 
@@ -51,7 +89,8 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
 
 PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
                                    const cv::Mat& image_b, const BouguetCamera& camera,
-                                   const PairOptions& options) {
+                                   const PairOptions& options,
+                                   std::span<const TrackCorrespondence> tracks) {
   PairReconstruction out;
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
     out.failure_reason = "keyframes are empty or of different sizes";
@@ -80,7 +119,11 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
     pixels_a.emplace_back(pa.x, pa.y);
     pixels_b.emplace_back(pb.x, pb.y);
   }
+  out.tracks = static_cast<int>(tracks.size());
+  AppendTracks(tracks, options.track_duplicate_px, &pixels_a, &pixels_b);
+  out.tracks_used = static_cast<int>(pixels_a.size()) - out.matches;
   out.geometry = EstimateTwoView(pixels_a, pixels_b, camera.K(), options.two_view);
+  for (int index : out.geometry.inliers) out.track_inliers += index >= out.matches ? 1 : 0;
   if (!out.geometry.success) {
     out.times.geometry_s = SecondsSince(start);
     out.failure_reason = out.geometry.failure_reason;

@@ -7,6 +7,7 @@
 // Thread-safety: pure function; reentrant.
 
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 
 #include "calib/camera_model.h"
@@ -17,12 +18,22 @@
 
 namespace mm {
 
+/// One keyframe-gate track (KLT from A through every frame to B, forward-backward checked):
+/// the same corner in A and in B, undistorted pixels.
+struct TrackCorrespondence {
+  Eigen::Vector2d pixel_a;
+  Eigen::Vector2d pixel_b;
+};
+
 struct PairOptions {
   SiftOptions sift;
   MatchOptions match;
   TwoViewOptions two_view;
   PointRefinementOptions refinement;
   MeshOptions mesh;
+  /// Tracks join the SIFT matches as correspondences; a track whose A pixel lies within this
+  /// of a matched SIFT keypoint in A is the same point twice and is left out.
+  double track_duplicate_px = 2.0;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -42,7 +53,10 @@ struct PairReconstruction {
   std::string failure_reason;
   int features_a = 0;
   int features_b = 0;
-  int matches = 0;
+  int matches = 0;        ///< SIFT matches.
+  int tracks = 0;         ///< Gate tracks given.
+  int tracks_used = 0;    ///< Of those, not duplicates of a SIFT match (appended after them).
+  int track_inliers = 0;  ///< Epipolar inliers among the tracks used.
   TwoViewResult geometry;
   std::vector<Eigen::Vector2d> point_pixels_a;  ///< Where each 3-D point was observed in A.
   std::vector<Eigen::Vector2d> point_pixels_b;  ///< Where each 3-D point was observed in B.
@@ -62,9 +76,12 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
 Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options);
 
 /// As above, with keyframe A's features precomputed by ExtractKeyframeFeatures (the time
-/// after B arrives). `times.features_a_s` stays 0.
+/// after B arrives; `times.features_a_s` stays 0), and the keyframe gate's tracks from A to B
+/// as further correspondences (a pair with weak SIFT matching across the baseline still has
+/// enough inliers).
 PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
                                    const cv::Mat& image_b, const BouguetCamera& camera,
-                                   const PairOptions& options);
+                                   const PairOptions& options,
+                                   std::span<const TrackCorrespondence> tracks = {});
 
 }  // namespace mm

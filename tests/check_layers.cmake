@@ -2,10 +2,11 @@
 set(rules
   "dataset:capture/|app/|recon/|calib/|spool/"
   "calib:capture/|app/|recon/|spool/"
-  "recon:capture/|app/|spool/"
+  "recon:capture/|app/|spool/|session/"
   "spool:capture/|app/|recon/|calib/"
   "synth:capture/|app/|spool/"
-  "capture:recon/|app/|spool/")
+  "capture:recon/|app/|spool/|session/"
+  "session:capture/|app/|spool/|render/")
 set(failures "")
 foreach(rule IN LISTS rules)
   string(REPLACE ":" ";" parts "${rule}")

@@ -129,27 +129,25 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
     }
   }
 
-  const auto* keyframes = r.Table("keyframes", {"parallax_deg", "min_tracks", "min_inliers",
-                                                "max_homography_inlier_ratio", "timeout_s"});
+  const auto* keyframes =
+      r.Table("keyframes", {"parallax_deg", "min_tracks", "min_inliers", "timeout_s", "max_tries"});
   int64_t min_tracks = c.gate.min_tracks;
   int64_t gate_inliers = c.gate.min_inliers;
+  int64_t max_tries = c.max_b_tries;
   r.Get(keyframes, "keyframes", "parallax_deg", &c.gate.parallax_deg);
   r.Get(keyframes, "keyframes", "min_tracks", &min_tracks);
   r.Get(keyframes, "keyframes", "min_inliers", &gate_inliers);
-  r.Get(keyframes, "keyframes", "max_homography_inlier_ratio",
-        &c.gate.max_homography_inlier_ratio);
+  r.Get(keyframes, "keyframes", "max_tries", &max_tries);
+  r.Require(max_tries >= 1, keyframes, "keyframes", "max_tries", "must be >= 1");
+  c.max_b_tries = static_cast<int>(max_tries);
   c.gate.min_tracks = static_cast<int>(min_tracks);
   c.gate.min_inliers = static_cast<int>(gate_inliers);
-  if (const std::string problem = c.gate.Check(); !problem.empty()) {
-    const std::string key = problem.substr(0, problem.find(':'));
-    r.Require(false, keyframes, "keyframes", key.c_str(), problem.substr(problem.find(':') + 2));
-  }
   r.Get(keyframes, "keyframes", "timeout_s", &c.keyframe_timeout_s);
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 
-  const auto* recon = r.Table("recon", {"sift", "max_features", "contrast_threshold", "match_ratio",
-                                        "ransac_threshold_px", "min_inliers", "max_depth_ratio",
-                                        "refine_points"});
+  const auto* recon = r.Table(
+      "recon", {"sift", "max_features", "contrast_threshold", "match_ratio", "ransac_threshold_px",
+                "min_inliers", "max_depth_ratio", "refine_points", "min_parallax_deg"});
   std::string sift = SiftImplName(c.recon.sift.impl);
   r.Get(recon, "recon", "sift", &sift);
   const std::optional<SiftImpl> impl = ParseSiftImpl(sift);
@@ -165,13 +163,23 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.Get(recon, "recon", "min_inliers", &min_inliers);
   r.Get(recon, "recon", "max_depth_ratio", &c.recon.mesh.max_depth_ratio);
   r.Get(recon, "recon", "refine_points", &c.recon.refinement.enabled);
+  r.Get(recon, "recon", "min_parallax_deg", &c.recon.two_view.min_median_triangulation_angle_deg);
   c.recon.sift.max_features = static_cast<int>(max_features);
   c.recon.two_view.min_inliers = static_cast<int>(min_inliers);
   if (const std::string problem = c.recon.Check(); !problem.empty()) {
     // The option names in Check() messages are the struct's; map the common ones to keys.
     const std::string field = problem.substr(0, problem.find(':'));
-    const std::string key = field == "ratio" ? "match_ratio" : field;
+    const std::string key = field == "ratio"                                ? "match_ratio"
+                            : field == "min_median_triangulation_angle_deg" ? "min_parallax_deg"
+                                                                            : field;
     r.Require(false, recon, "recon", key.c_str(), problem.substr(problem.find(':') + 2));
+  }
+
+  // The gate applies the reconstruction's own tests (one notion of "enough parallax").
+  c.gate.two_view = c.recon.two_view;
+  if (const std::string problem = c.gate.Check(); !problem.empty()) {
+    const std::string key = problem.substr(0, problem.find(':'));
+    r.Require(false, keyframes, "keyframes", key.c_str(), problem.substr(problem.find(':') + 2));
   }
 
   const auto* spool = r.Table("spool", {"dir", "max_entries"});

@@ -10,6 +10,7 @@
 #include "capture/trigger.h"
 #include "recon/keyframe_gate.h"
 #include "recon/pipeline.h"
+#include "session/capture_session.h"
 
 namespace mm {
 
@@ -31,8 +32,9 @@ struct DaemonConfig {
   GpioButtonOptions button;
   bool button_enabled = false;
 
-  KeyframeGateOptions gate;           ///< [keyframes] parallax_deg, min_tracks, ...
+  KeyframeGateOptions gate;           ///< [keyframes] parallax_deg, min_tracks, min_inliers
   double keyframe_timeout_s = 30.0;   ///< [keyframes] timeout_s
+  int max_b_tries = CaptureSessionOptions{}.max_tries;  ///< [keyframes] max_tries
 
   PairOptions recon;                  ///< [recon] ...
 

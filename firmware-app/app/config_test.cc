@@ -26,7 +26,9 @@ TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
   EXPECT_EQ(c.gate.parallax_deg, defaults.gate.parallax_deg);
   EXPECT_EQ(c.gate.min_tracks, defaults.gate.min_tracks);
   EXPECT_EQ(c.gate.min_inliers, defaults.gate.min_inliers);
-  EXPECT_EQ(c.gate.max_homography_inlier_ratio, defaults.gate.max_homography_inlier_ratio);
+  EXPECT_EQ(c.max_b_tries, defaults.max_b_tries);
+  EXPECT_EQ(c.recon.two_view.min_median_triangulation_angle_deg,
+            defaults.recon.two_view.min_median_triangulation_angle_deg);
   EXPECT_EQ(c.keyframe_timeout_s, defaults.keyframe_timeout_s);
   EXPECT_EQ(c.recon.sift.impl, defaults.recon.sift.impl);
   EXPECT_EQ(c.recon.sift.max_features, defaults.recon.sift.max_features);
@@ -75,6 +77,22 @@ TEST(DaemonConfig, ErrorsNameTheKey) {
   EXPECT_FALSE(ParseDaemonConfig(std::string(kMinimal) + "[recon]\nrefine_points = false\n",
                                  "/x/d.toml")
                    .recon.refinement.enabled);
+  // One notion of parallax: the gate's target may not be below the reconstruction's minimum.
+  ExpectError(std::string(kMinimal) + "[recon]\nmin_parallax_deg = 2.5\n",
+              "keyframes.parallax_deg");
+  ExpectError(std::string(kMinimal) + "[recon]\nmin_parallax_deg = -1\n", "recon.min_parallax_deg");
+  ExpectError(std::string(kMinimal) + "[keyframes]\nmax_tries = 0\n", "keyframes.max_tries");
+  {
+    const DaemonConfig c = ParseDaemonConfig(std::string(kMinimal) +
+                                                 "[keyframes]\nparallax_deg = 3.0\nmax_tries = 4\n"
+                                                 "[recon]\nmin_parallax_deg = 2.0\n",
+                                             "/x/d.toml");
+    EXPECT_EQ(c.gate.parallax_deg, 3.0);
+    EXPECT_EQ(c.max_b_tries, 4);
+    EXPECT_EQ(c.recon.two_view.min_median_triangulation_angle_deg, 2.0);
+    // The gate applies the reconstruction's own tests and thresholds.
+    EXPECT_EQ(c.gate.two_view.min_median_triangulation_angle_deg, 2.0);
+  }
   ExpectError(std::string(kMinimal) + "[log]\nlevel = \"loud\"\n", "log.level");
   ExpectError("[camera]\ncalibration = \"c.toml\"\n", "camera.uri");
   ExpectError("[camera\n", "not valid TOML");

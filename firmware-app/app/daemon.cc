@@ -26,10 +26,10 @@
 #include "base/unique_fd.h"
 #include "calib/calib_io.h"
 #include "calib/undistort.h"
-#include "recon/keyframe_gate.h"
 #include "capture/capture_thread.h"
 #include "capture/source_uri.h"
 #include "capture/trigger.h"
+#include "session/capture_session.h"
 #include "spool/spool.h"
 
 namespace mm {
@@ -56,6 +56,8 @@ struct Job {
   FramePtr b;
   cv::Mat undistorted_a;     // What the reconstruction sees.
   cv::Mat undistorted_b;
+  std::vector<TrackCorrespondence> tracks;  // The gate's tracks from A to B.
+  std::vector<KeyframeBTry> tries;          // This capture's B tries so far (the last is this B).
 };
 
 struct JobOutcome {
@@ -63,6 +65,11 @@ struct JobOutcome {
   bool ok = false;
   std::string entry;
   std::string error;
+  /// The reconstruction refused the pair (as opposed to a spool or internal error): the
+  /// session decides whether a later B may follow.
+  bool refused = false;
+  TwoViewFailure failure = TwoViewFailure::kNone;
+  std::string refusal;  // The reconstruction's reason.
   double seconds = 0.0;
 };
 
@@ -155,17 +162,20 @@ class Worker {
       bool have_features = false;
       {
         std::lock_guard lock(mutex_);
+        // Copied, not moved: a refused B may be followed by a later one from the same A.
         if (features_capture_ == job.capture_id) {
-          features_a = std::move(features_);
+          features_a = features_;
           have_features = true;
         }
-        features_capture_ = 0;
       }
       PairJobResult result =
-          RunPairJob(job.undistorted_a, job.undistorted_b, InfoOf(*job.a), InfoOf(*job.b),
-                     camera_, config_.recon, have_features ? &features_a : nullptr);
+          RunPairJob(job.undistorted_a, job.undistorted_b, InfoOf(*job.a), InfoOf(*job.b), camera_,
+                     config_.recon, have_features ? &features_a : nullptr, job.tracks, job.tries);
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
+        outcome.refused = true;
+        outcome.failure = result.recon.geometry.failure;
+        outcome.refusal = result.error;
       } else {
         const SpoolCommit commit = spool_->Commit(result.files, std::time(nullptr));
         if (commit.ok) {
@@ -221,8 +231,12 @@ const char* Name(State s) {
 class Daemon {
  public:
   Daemon(const DaemonConfig& config, const BouguetCamera& camera)
-      : config_(config), undistorter_(camera),
-        gate_(undistorter_.output_camera().K(), config.gate),
+      : config_(config),
+        undistorter_(camera),
+        session_(undistorter_.output_camera().K(),
+                 CaptureSessionOptions{.gate = config.gate,
+                                       .timeout_s = config.keyframe_timeout_s,
+                                       .max_tries = config.max_b_tries}),
         spool_({.dir = config.spool_dir, .max_entries = config.spool_max_entries}) {}
 
   int Run();
@@ -239,10 +253,11 @@ class Daemon {
   void AddFd(int fd);
   Trigger* FindTrigger(int fd) const;
   static cv::Mat Gray(const cv::Mat& image);
+  static double NowSeconds();  // The session's clock (steady).
 
   const DaemonConfig& config_;
   Undistorter undistorter_;
-  KeyframeGate gate_;
+  CaptureSession session_;
   Spool spool_;
   UniqueFd epoll_;
   UniqueFd frame_event_;
@@ -262,8 +277,6 @@ class Daemon {
   FramePtr keyframe_a_;
   cv::Mat undistorted_a_;
   uint64_t last_tracked_sequence_ = 0;
-  GateDecision last_decision_;
-  std::chrono::steady_clock::time_point tracking_deadline_;
   json last_result_ = nullptr;
   uint64_t watchdog_usec_ = 0;
   std::chrono::steady_clock::time_point last_watchdog_;
@@ -455,17 +468,16 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   keyframe_a_ = std::move(latest);
   undistorted_a_ = undistorted;
   last_tracked_sequence_ = keyframe_a_->sequence;
-  const int corners = gate_.Start(Gray(undistorted_a_));
+  const int corners = session_.Start(Gray(undistorted_a_), NowSeconds());
   worker_->Prepare(captures_, undistorted_a_);
-  last_decision_ = GateDecision{};
-  last_decision_.tracks = corners;
-  tracking_deadline_ = std::chrono::steady_clock::now() +
-                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                           std::chrono::duration<double>(config_.keyframe_timeout_s));
   spdlog::info("capture {} ({}): keyframe A = frame {} ({}), {} corners to track", captures_,
                origin, keyframe_a_->sequence, keyframe_a_->source_id, corners);
   SetState(State::kTracking);
   *reply = {{"ok", true}, {"capture", captures_}};
+}
+
+double Daemon::NowSeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 cv::Mat Daemon::Gray(const cv::Mat& image) {
@@ -477,14 +489,20 @@ cv::Mat Daemon::Gray(const cv::Mat& image) {
 
 void Daemon::EndCapture(const std::string& error) {
   spdlog::error("capture {}: {}", captures_, error);
-  last_result_ = {{"capture", captures_}, {"ok", false}, {"error", error}};
+  session_.Abort(error);
+  last_result_ = {{"capture", captures_},
+                  {"ok", false},
+                  {"error", error},
+                  {"b_tries", session_.tries().size()}};
   keyframe_a_.reset();
   undistorted_a_.release();
   SetState(State::kIdle);
 }
 
 void Daemon::OnFrame() {
-  if (state_ != State::kTracking) return;
+  // Frames feed the session while a capture is open, also while a B is being reconstructed
+  // (the tracks stay alive for a later B if that one is refused).
+  if (!session_.open()) return;
   FramePtr frame = capture_->Latest();
   if (!frame || frame->sequence <= last_tracked_sequence_) return;
   last_tracked_sequence_ = frame->sequence;
@@ -494,54 +512,72 @@ void Daemon::OnFrame() {
   try {
     undistorted = undistorter_.Apply(frame->image);
   } catch (const std::exception& e) {
-    EndCapture(std::string("frame does not fit the calibration: ") + e.what());
+    if (state_ == State::kTracking) {
+      EndCapture(std::string("frame does not fit the calibration: ") + e.what());
+    }
     return;
   }
-  last_decision_ = gate_.Update(Gray(undistorted));
+  const CaptureSession::Step step =
+      session_.OnFrame(Gray(undistorted), frame->sequence, NowSeconds(),
+                       /*can_submit=*/state_ == State::kTracking);
+  const GateDecision& d = session_.last_decision();
   spdlog::debug("capture {}: frame {}: {} tracks, parallax {:.3f} deg: {}", captures_,
-                frame->sequence, last_decision_.tracks, last_decision_.median_parallax_deg,
-                last_decision_.reason);
-  if (last_decision_.verdict == GateDecision::Verdict::kLostTrack) {
-    EndCapture(last_decision_.reason);
+                frame->sequence, d.tracks, d.median_parallax_deg, d.reason);
+  if (step == CaptureSession::Step::kFailed) {
+    EndCapture(session_.failure_reason());
     return;
   }
-  if (last_decision_.verdict != GateDecision::Verdict::kTakeB) return;
-  spdlog::info("capture {}: keyframe B = frame {} ({}), parallax {:.2f} deg, {} inliers",
-               captures_, frame->sequence, frame->source_id, last_decision_.median_parallax_deg,
-               last_decision_.essential_inliers);
-  Job job{captures_, keyframe_a_, frame, undistorted_a_, undistorted};
+  if (step != CaptureSession::Step::kSubmitB) return;
+  spdlog::info("capture {}: keyframe B = frame {} ({}), parallax {:.2f} deg, {} inliers{}",
+               captures_, frame->sequence, frame->source_id, d.median_parallax_deg,
+               d.essential_inliers,
+               session_.tries().size() > 1 ? fmt::format(" (try {})", session_.tries().size())
+                                           : std::string());
+  Job job{captures_,   keyframe_a_,       frame,           undistorted_a_,
+          undistorted, session_.Tracks(), session_.tries()};
   if (!worker_->Submit(std::move(job))) {
     EndCapture("worker busy; capture dropped");
     return;
   }
-  keyframe_a_.reset();
-  undistorted_a_.release();
   SetState(State::kReconstructing);
 }
 
 void Daemon::OnJobDone() {
   while (std::optional<JobOutcome> o = worker_->TakeOutcome()) {
+    if (o->capture_id != captures_ || !session_.open()) continue;  // A capture already ended.
+    if (o->refused) {
+      const CaptureSession::Step step = session_.OnResult(false, o->failure, o->refusal);
+      if (step == CaptureSession::Step::kWait) {
+        spdlog::info("capture {}: keyframe B refused ({}); tracking on for a later B",
+                     o->capture_id, o->refusal);
+        SetState(State::kTracking);
+        continue;
+      }
+      EndCapture(session_.failure_reason());
+      continue;
+    }
+    session_.OnResult(true, TwoViewFailure::kNone, {});
     if (o->ok) {
       ++succeeded_;
-      spdlog::info("capture {}: mesh written to {} ({:.2f} s)", o->capture_id, o->entry,
-                   o->seconds);
+      spdlog::info("capture {}: mesh written to {} ({:.2f} s, {} B tried)", o->capture_id, o->entry,
+                   o->seconds, session_.tries().size());
     } else {
       spdlog::error("capture {}: {}", o->capture_id, o->error);
     }
-    last_result_ = {{"capture", o->capture_id}, {"ok", o->ok}, {"entry", o->entry},
-                    {"error", o->error}, {"seconds", o->seconds}};
+    last_result_ = {{"capture", o->capture_id}, {"ok", o->ok},
+                    {"entry", o->entry},        {"error", o->error},
+                    {"seconds", o->seconds},    {"b_tries", session_.tries().size()}};
+    keyframe_a_.reset();
+    undistorted_a_.release();
     SetState(State::kIdle);
   }
 }
 
 void Daemon::OnTimer() {
   const auto now = std::chrono::steady_clock::now();
-  if (state_ == State::kTracking && now > tracking_deadline_) {
-    EndCapture("not enough motion: no keyframe B within " +
-               std::to_string(config_.keyframe_timeout_s) + " s (last frame: " +
-               std::to_string(last_decision_.tracks) + " tracks, parallax " +
-               std::to_string(last_decision_.median_parallax_deg) + " deg; " +
-               last_decision_.reason + ")");
+  if (state_ == State::kTracking &&
+      session_.OnTime(NowSeconds()) == CaptureSession::Step::kFailed) {
+    EndCapture(session_.failure_reason());
   }
   if (watchdog_usec_ > 0 &&
       now - last_watchdog_ > std::chrono::microseconds(watchdog_usec_ / 2)) {
@@ -584,24 +620,28 @@ json Daemon::Status() {
           {"state", Name(state_)},
           {"captures", captures_},
           {"last_trigger", last_trigger_},
-          {"triggers", [this] {
+          {"triggers",
+           [this] {
              json list = json::array();
              for (const auto& t : triggers_) list.push_back(t->Describe());
              list.push_back("control socket " + config_.control_socket.string());
              return list;
            }()},
           {"meshes", succeeded_},
-          {"camera", {{"source", capture_->Describe()},
-                      {"frames", stats.frames},
-                      {"dropped", stats.dropped},
-                      {"errors", stats.errors},
-                      {"end_of_stream", stats.end_of_stream},
-                      {"last_error", stats.last_error}}},
-          {"gate", {{"tracks", last_decision_.tracks},
-                    {"parallax_deg", last_decision_.median_parallax_deg},
-                    {"essential_inliers", last_decision_.essential_inliers},
-                    {"homography_inliers", last_decision_.homography_inliers},
-                    {"reason", last_decision_.reason}}},
+          {"camera",
+           {{"source", capture_->Describe()},
+            {"frames", stats.frames},
+            {"dropped", stats.dropped},
+            {"errors", stats.errors},
+            {"end_of_stream", stats.end_of_stream},
+            {"last_error", stats.last_error}}},
+          {"gate",
+           {{"tracks", session_.last_decision().tracks},
+            {"parallax_deg", session_.last_decision().median_parallax_deg},
+            {"essential_inliers", session_.last_decision().essential_inliers},
+            {"homography_inliers", session_.last_decision().homography_inliers},
+            {"b_tries", session_.tries().size()},
+            {"reason", session_.last_decision().reason}}},
           {"spool", spool_.dir().string()},
           {"last_result", last_result_}};
 }

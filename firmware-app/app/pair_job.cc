@@ -24,11 +24,13 @@ nlohmann::json KeyframeJson(const KeyframeInfo& k) {
 
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
                          const KeyframeInfo& b, const BouguetCamera& camera,
-                         const PairOptions& options, const Features* features_a) {
+                         const PairOptions& options, const Features* features_a,
+                         std::span<const TrackCorrespondence> tracks,
+                         std::span<const KeyframeBTry> tries) {
   PairJobResult out;
   const auto start = std::chrono::steady_clock::now();
   out.recon = features_a != nullptr
-                  ? ReconstructPair(*features_a, image_a, image_b, camera, options)
+                  ? ReconstructPair(*features_a, image_a, image_b, camera, options, tracks)
                   : ReconstructPair(image_a, image_b, camera, options);
   const PairReconstruction& r = out.recon;
   const TwoViewResult& g = r.geometry;
@@ -54,6 +56,21 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                                  {"final_rms_px", g.bundle.final_rms_px},
                                  {"message", g.bundle.message}};
   report["keyframe_a_features_precomputed"] = features_a != nullptr;
+  if (!tries.empty()) {
+    // Every B this capture handed to the reconstruction; the refused ones say why.
+    nlohmann::json list = nlohmann::json::array();
+    for (const KeyframeBTry& t : tries) {
+      const bool is_this = &t == &tries.back();
+      list.push_back({{"frame", t.frame_sequence},
+                      {"seconds_after_a", t.seconds_after_a},
+                      {"gate_parallax_deg", t.gate_parallax_deg},
+                      {"tracks", t.tracks},
+                      {"accepted", is_this ? r.success : t.accepted},
+                      {"failure", TwoViewFailureName(is_this ? g.failure : t.failure)},
+                      {"reason", is_this ? r.failure_reason : t.reason}});
+    }
+    report["keyframe_b_tries"] = list;
+  }
   report["keyframes"] = {{"a", KeyframeJson(a)}, {"b", KeyframeJson(b)}};
   report["camera"] = {{"image_size", {camera.width, camera.height}},
                       {"fc", {camera.fc.x(), camera.fc.y()}},
@@ -70,16 +87,19 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
       {"translation", {g.translation.x(), g.translation.y(), g.translation.z()}}};
   report["scale"] =
       "up to scale: a monocular pair fixes no metric scale; |t| = 1 (the baseline) is the unit";
-  report["counts"] = {{"features_a", r.features_a},
-                      {"features_b", r.features_b},
-                      {"matches", r.matches},
-                      {"inliers", g.num_inliers},
-                      {"points", g.points_in_cam_a.size()},
-                      {"mesh_vertices", r.mesh.vertices.size()},
-                      {"mesh_triangles", r.mesh.triangles.size()},
-                      {"mesh_dropped_depth_discontinuity",
-                       r.mesh_summary.dropped_depth_discontinuity},
-                      {"mesh_dropped_grazing_angle", r.mesh_summary.dropped_grazing_angle}};
+  report["counts"] = {
+      {"features_a", r.features_a},
+      {"features_b", r.features_b},
+      {"matches", r.matches},
+      {"gate_tracks", r.tracks},
+      {"gate_tracks_used", r.tracks_used},
+      {"gate_track_inliers", r.track_inliers},
+      {"inliers", g.num_inliers},
+      {"points", g.points_in_cam_a.size()},
+      {"mesh_vertices", r.mesh.vertices.size()},
+      {"mesh_triangles", r.mesh.triangles.size()},
+      {"mesh_dropped_depth_discontinuity", r.mesh_summary.dropped_depth_discontinuity},
+      {"mesh_dropped_grazing_angle", r.mesh_summary.dropped_grazing_angle}};
   report["meshing"] = {{"voxel_size", r.mesh_summary.voxel_size},
                        {"occupied_cells", r.mesh_summary.occupied_cells},
                        {"kept_cells", r.mesh_summary.kept_cells},

@@ -5,11 +5,13 @@
 // calibration.toml, report.json). Shared by `monomesh recon` and the daemon's worker.
 
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "calib/camera_model.h"
 #include "recon/pipeline.h"
+#include "session/capture_session.h"
 #include "spool/spool.h"
 
 namespace mm {
@@ -33,8 +35,12 @@ struct PairJobResult {
 /// `image_a`/`image_b` are undistorted BGR8 frames seen through `camera` (no distortion).
 /// `features_a`, when given, are keyframe A's features from ExtractKeyframeFeatures (computed
 /// while the gate waited for B), so only B's are computed here.
+/// `tracks`: the keyframe gate's tracks from A to B (further correspondences); `tries`: the
+/// capture's B tries so far, the last being this B (the report lists them).
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
                          const KeyframeInfo& b, const BouguetCamera& camera,
-                         const PairOptions& options, const Features* features_a = nullptr);
+                         const PairOptions& options, const Features* features_a = nullptr,
+                         std::span<const TrackCorrespondence> tracks = {},
+                         std::span<const KeyframeBTry> tries = {});
 
 }  // namespace mm

@@ -1,6 +1,9 @@
 // `monomesh eval --dataset DIR --calib C [--list FILE] [--step N] [--json FILE]`: run the
 // two-view reconstruction on every pair (i, i+N) of a TUM-format folder and compare with its
 // ground truth (recon/evaluation.h holds the logic).
+// `monomesh eval --captures --dataset DIR --calib C [--trigger-every S] [--json FILE]`: play a
+// continuous sequence through the daemon's gate and worker in simulated time and press capture
+// (session/capture_eval.h).
 // `monomesh eval --dataset DIR --spool SPOOL [--feed-log FILE] [--json FILE]`: instead, compare
 // the daemon's spool entries (their report.json) with the dataset's ground truth
 // (app/entry_eval.h).
@@ -13,6 +16,7 @@
 #include "cli/commands.h"
 #include "recon/evaluation.h"
 #include "render/mesh_eval.h"
+#include "session/capture_eval.h"
 
 namespace mm::cli {
 namespace {
@@ -34,6 +38,14 @@ struct EvalArgs {
   bool refine_points = EvalOptions{}.pair.refinement.enabled;
   std::string sift_impl = SiftImplName(EvalOptions{}.pair.sift.impl);
   bool quiet = false;
+  bool captures = false;
+  bool log_gate = false;
+  double trigger_every_s = CaptureEvalOptions{}.trigger_every_s;
+  double parallax_deg = KeyframeGateOptions{}.parallax_deg;
+  double min_parallax_deg = TwoViewOptions{}.min_median_triangulation_angle_deg;
+  double timeout_s = CaptureSessionOptions{}.timeout_s;
+  bool use_tracks = CaptureEvalOptions{}.use_tracks;
+  double worker_latency_s = CaptureEvalOptions{}.worker_latency_s;
 };
 
 int RunEntryEval(const EvalArgs& args) {
@@ -47,6 +59,42 @@ int RunEntryEval(const EvalArgs& args) {
   if (!args.json.empty()) {
     std::ofstream out(args.json);
     out << EntryEvalToJson(result);
+    if (!out) {
+      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
+      return 1;
+    }
+  }
+  return 0;
+}
+
+int RunCaptureEval(const EvalArgs& args, const BouguetCamera& camera, const PairOptions& pair) {
+  CaptureEvalOptions options;
+  options.list = args.list;
+  options.pair = pair;
+  options.pair.two_view.min_median_triangulation_angle_deg = args.min_parallax_deg;
+  options.session.gate.parallax_deg = args.parallax_deg;
+  options.session.gate.two_view = options.pair.two_view;
+  options.session.timeout_s = args.timeout_s;
+  options.trigger_every_s = args.trigger_every_s;
+  options.use_tracks = args.use_tracks;
+  options.worker_latency_s = args.worker_latency_s;
+  options.log_gate = args.log_gate;
+  if (const std::string problem = options.Check(); !problem.empty()) {
+    std::cerr << "monomesh eval: " << problem << "\n";
+    return 2;
+  }
+  const CaptureEvalResult result = EvaluateCaptures(args.dataset, camera, options);
+  if (!result.ok) {
+    std::cerr << "monomesh eval: " << result.failure_reason << "\n";
+    return 1;
+  }
+  if (!args.quiet) {
+    for (const CaptureEval& c : result.captures) std::cout << FormatCaptureLine(c) << "\n";
+  }
+  std::cout << FormatCaptureSummary(result);
+  if (!args.json.empty()) {
+    std::ofstream out(args.json);
+    out << CaptureEvalToJson(result);
     if (!out) {
       std::cerr << "monomesh eval: cannot write " << args.json << "\n";
       return 1;
@@ -78,6 +126,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.two_view.lo_ransac = args.lo_ransac;
   options.pair.refinement.enabled = args.refine_points;
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
+  if (args.captures) return RunCaptureEval(args, camera, options.pair);
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
@@ -148,6 +197,24 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--sift-impl", args->sift_impl, "SIFT implementation: opencv or own")
       ->check(CLI::IsMember({SiftImplName(SiftImpl::kOpenCv), SiftImplName(SiftImpl::kOwn)}));
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
+  cmd->add_flag("--captures", args->captures,
+                "Play the sequence through the daemon's gate and worker and press capture");
+  cmd->add_option("--trigger-every", args->trigger_every_s,
+                  "With --captures: press capture every S seconds of video (and after each "
+                  "result)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--parallax-deg", args->parallax_deg,
+                  "With --captures: [keyframes] parallax_deg (the gate's target angle)");
+  cmd->add_option("--min-parallax-deg", args->min_parallax_deg,
+                  "[recon] min_parallax_deg (the reconstruction's minimum median angle)");
+  cmd->add_option("--timeout", args->timeout_s, "With --captures: [keyframes] timeout_s");
+  cmd->add_option("--tracks", args->use_tracks,
+                  "With --captures: the gate's tracks join the SIFT matches (true / false)");
+  cmd->add_flag("--log-gate", args->log_gate,
+                "With --captures: print the gate's decision on every frame");
+  cmd->add_option("--worker-latency", args->worker_latency_s,
+                  "With --captures: fixed reconstruction time in video seconds (default: "
+                  "measured)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunEval(*args);

@@ -118,6 +118,16 @@ TEST(Daemon, BadConfigExits78NamingTheKey) {
   EXPECT_NE(log.find("keyframes.parallax_deg"), std::string::npos) << log;
 }
 
+// The gate may not take a B the reconstruction would refuse: its target below [recon]
+// min_parallax_deg is a config error naming the key.
+TEST(Daemon, GateTargetBelowTheReconstructionsMinimumExits78) {
+  DaemonProcess daemon("gatebelow", "rate=max", "[keyframes]\nparallax_deg = 0.5\n");
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78);
+  EXPECT_NE(log.find("keyframes.parallax_deg"), std::string::npos) << log;
+  EXPECT_NE(log.find("refused"), std::string::npos) << log;
+}
+
 TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   DaemonProcess daemon("badcalib", "rate=max");
   const fs::path calib = daemon.dir() / "broken.toml";
@@ -178,7 +188,10 @@ TEST(Daemon, RotationOnlySequenceNeverTakesKeyframeB) {
   list.close();
   fs::copy_file(kData / "calib.toml", dir / "calib.toml");
   DaemonProcess daemon("rotation", "rate=realtime&loop=0",
-                       "[keyframes]\nparallax_deg = 0.05\ntimeout_s = 3.0\n", dir);
+                       // Even a gate and a reconstruction that accept 0.05 deg of parallax.
+                       "[keyframes]\nparallax_deg = 0.05\ntimeout_s = 3.0\n"
+                       "[recon]\nmin_parallax_deg = 0.05\n",
+                       dir);
   daemon.Start();
   const json result = daemon.TriggerAndWait(30s);
   EXPECT_FALSE(result.value("ok", true)) << result.dump();

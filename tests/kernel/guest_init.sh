@@ -70,13 +70,15 @@ run unplug --device /dev/video0 --driver /sys/bus/platform/drivers/vivid --name 
 # frame went in), monomeshd reading the device as its camera, a trigger, a spool entry, and its
 # pose evaluated against the dataset's ground truth by `monomesh eval --spool`. The feeder holds
 # the first frame (the robot standing still) until the daemon has been triggered, then walks.
+# Usage: appliance NAME DATASET (DATASET/check.conf: fps max_rot max_trans parallax calibration).
 appliance() {
-  read fps max_rot max_trans parallax < /dataset/check.conf
-  d=/tmp/mm
+  name=$1 ds=$2
+  read fps max_rot max_trans parallax calib < $ds/check.conf
+  d=/tmp/mm-$name
   mkdir -p $d/spool
-  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "/dataset/calib.toml"\n[control]\nsocket = "%s"\n[keyframes]\nparallax_deg = %s\n[spool]\ndir = "%s"\n' \
-    $d/control.sock "$parallax" $d/spool > $d/monomeshd.toml
-  monomesh feed --device /dev/video10 --dataset /dataset --fps "$fps" --format yuyv --once \
+  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "%s"\n[control]\nsocket = "%s"\n[keyframes]\nparallax_deg = %s\n[spool]\ndir = "%s"\n' \
+    "$ds/$calib" $d/control.sock "$parallax" $d/spool > $d/monomeshd.toml
+  monomesh feed --device /dev/video10 --dataset $ds --fps "$fps" --format yuyv --once \
     --hold-first --log $d/feed.log 2> $d/feed.err &
   feeder=$!
   for i in $(seq 50); do [ "$(wc -l < $d/feed.log 2>/dev/null)" -ge 2 ] 2>/dev/null && break; sleep 0.2; done
@@ -90,7 +92,7 @@ appliance() {
   kill -USR1 $feeder
   wait $trigger
   t1=$(date +%s)
-  monomesh eval --dataset /dataset --spool $d/spool --feed-log $d/feed.log > $d/eval.txt 2>&1
+  monomesh eval --dataset $ds --spool $d/spool --feed-log $d/feed.log > $d/eval.txt 2>&1
   kill $daemon $feeder 2> /dev/null
   wait $daemon
   wait $feeder
@@ -100,14 +102,16 @@ appliance() {
   verdict=$(echo "$summary" | awk -v mr="$max_rot" -v mt="$max_trans" '{
     ev = $4 + 0; rot = $10 + 0; tr = $18 + 0;
     print (ev >= 1 && rot <= mr && tr <= mt) ? "PASS" : "FAIL" }')
-  echo "CHECK appliance-loopback $verdict $((t1 - t0)) s from trigger to entry; $line; $summary (limits $max_rot / $max_trans deg)"
+  echo "CHECK $name $verdict $((t1 - t0)) s from trigger to entry; $line; $summary (limits $max_rot / $max_trans deg)"
   if [ "$verdict" != PASS ]; then
     for f in result.json trigger.err feed.err monomeshd.log eval.txt; do
       echo "GUEST $f:"; tail -n 15 $d/$f | sed 's/^/GUEST   /'
     done
   fi
 }
-appliance
+appliance appliance-loopback /dataset
+# Real hand-held video (SUN3D, 30 Hz) when ../shared/data has it: the same path, real motion.
+[ -f /dataset_video/check.conf ] && appliance appliance-loopback-real-video /dataset_video
 
 echo "GUEST done"
 poweroff -f

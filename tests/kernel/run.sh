@@ -138,24 +138,32 @@ done
 # The dataset the appliance check feeds into v4l2loopback (TUM format with ground truth). By
 # default a `monomesh synth` L-corridor walk (exact ground truth; docs/synth.md) through a
 # distorted 320x240 board camera, played at 30 fps; MM_KERNEL_DATASET plays another folder
-# (e.g. data/tum_office with MM_KERNEL_DATASET_FPS=1 MM_KERNEL_PARALLAX_DEG=0.3).
+# (e.g. data/tum_office with MM_KERNEL_DATASET_FPS=1).
 if [ -n "${MM_KERNEL_DATASET:-}" ]; then
   appliance_data="$MM_KERNEL_DATASET"
-  conf="${MM_KERNEL_DATASET_FPS:-1} ${MM_KERNEL_MAX_ROT_ERR_DEG:-1.0} ${MM_KERNEL_MAX_TRANS_ERR_DEG:-10} ${MM_KERNEL_PARALLAX_DEG:-0.3}"
+  conf="${MM_KERNEL_DATASET_FPS:-1} ${MM_KERNEL_MAX_ROT_ERR_DEG:-1.0} ${MM_KERNEL_MAX_TRANS_ERR_DEG:-10} ${MM_KERNEL_PARALLAX_DEG:-2.0} calib.toml"
 else
   appliance_data="$work/corridor"
   rm -rf "$appliance_data"
-  # 150 frames: 5 s and 5 m of walking. Parallax 1.5 deg as in tests/integration/daemon_synth_test
-  # (the default 0.3 deg of the gate is too little triangulation angle when walking forward).
+  # 150 frames: 5 s and 5 m of walking, the gate at its default angle.
   "$cli" synth --scene l-corridor --out "$appliance_data" --frames 150 --fps 30 \
     --calib tests/support/board_camera.toml --seed 1 --path walk >/dev/null
-  conf="30 ${MM_KERNEL_MAX_ROT_ERR_DEG:-0.5} ${MM_KERNEL_MAX_TRANS_ERR_DEG:-3} 1.5"
+  conf="30 ${MM_KERNEL_MAX_ROT_ERR_DEG:-0.5} ${MM_KERNEL_MAX_TRANS_ERR_DEG:-3} 2.0 calib.toml"
   log "corridor generated"
 fi
 mkdir -p "$root/dataset"
 cp -r "$appliance_data"/rgb "$appliance_data"/rgb.txt "$appliance_data"/groundtruth.txt \
   "$appliance_data"/calib.toml "$root/dataset/"
 echo "$conf" > "$root/dataset/check.conf"
+# Real hand-held video for the same check when ../shared/data has it (SUN3D study room, 30 Hz;
+# its SfM ground truth is interpolated between every 5th frame, hence the looser limits).
+video="$repo/../shared/data/sun3d_studyroom_continuous"
+if [ -d "$video" ]; then
+  mkdir -p "$root/dataset_video"
+  cp -r "$video"/rgb "$video"/rgb.txt "$video"/groundtruth.txt "$video"/Calib_Results.m \
+    "$root/dataset_video/"
+  echo "30 2.0 15 2.0 Calib_Results.m" > "$root/dataset_video/check.conf"
+fi
 cp tests/kernel/guest_init.sh "$root/init"
 chmod +x "$root/init"
 (cd "$root" && find . | cpio -o -H newc --quiet | zstd -q -1 -T0 > "$work/initrd.zst")

@@ -1,0 +1,122 @@
+#include "session/capture_session.h"
+
+#include <map>
+
+namespace mm {
+
+std::string CaptureSessionOptions::Check() const {
+  if (!(timeout_s > 0)) return "timeout_s: must be > 0";
+  if (!(retry_parallax_growth >= 1)) return "retry_parallax_growth: must be >= 1";
+  if (max_tries < 1) return "max_tries: must be >= 1";
+  return gate.Check();
+}
+
+CaptureSession::CaptureSession(const Eigen::Matrix3d& K, CaptureSessionOptions options)
+    : options_(std::move(options)), gate_(K, options_.gate) {}
+
+int CaptureSession::Start(const cv::Mat& gray_a, double time_s) {
+  open_ = true;
+  in_flight_ = false;
+  lost_ = false;
+  start_time_s_ = time_s;
+  tries_.clear();
+  failure_reason_.clear();
+  const int corners = gate_.Start(gray_a);
+  last_decision_ = GateDecision{};
+  last_decision_.tracks = corners;
+  return corners;
+}
+
+CaptureSession::Step CaptureSession::Fail(std::string reason) {
+  open_ = false;
+  in_flight_ = false;
+  failure_reason_ = std::move(reason);
+  return Step::kFailed;
+}
+
+std::string CaptureSession::RefusalSummary() const {
+  std::map<std::string, int> counts;
+  int refused = 0;
+  for (const KeyframeBTry& t : tries_) {
+    if (t.accepted) continue;
+    ++refused;
+    ++counts[TwoViewFailureName(t.failure)];
+  }
+  if (refused == 0) return "no B tried";
+  std::string out = std::to_string(refused) + " B refused:";
+  for (const auto& [name, n] : counts) out += " " + name + " x" + std::to_string(n);
+  return out;
+}
+
+CaptureSession::Step CaptureSession::OnFrame(const cv::Mat& gray, uint64_t sequence, double time_s,
+                                             bool can_submit) {
+  if (!open_) return Step::kWait;
+  if (lost_) return Step::kWait;  // Waiting for the in-flight result only.
+  last_decision_ = gate_.Update(gray);
+  if (last_decision_.verdict == GateDecision::Verdict::kLostTrack) {
+    if (in_flight_) {
+      lost_ = true;
+      return Step::kWait;
+    }
+    return Fail(tries_.empty() ? last_decision_.reason
+                               : last_decision_.reason + " after " + RefusalSummary());
+  }
+  if (in_flight_) return Step::kWait;
+  if (const Step s = OnTime(time_s); s == Step::kFailed) return s;
+  if (last_decision_.verdict != GateDecision::Verdict::kTakeB || !can_submit) return Step::kWait;
+  KeyframeBTry attempt;
+  attempt.frame_sequence = sequence;
+  attempt.seconds_after_a = time_s - start_time_s_;
+  attempt.gate_parallax_deg = last_decision_.median_parallax_deg;
+  attempt.tracks = last_decision_.tracks;
+  tries_.push_back(attempt);
+  in_flight_ = true;
+  return Step::kSubmitB;
+}
+
+CaptureSession::Step CaptureSession::OnResult(bool accepted, TwoViewFailure failure,
+                                              const std::string& reason) {
+  if (!open_ || !in_flight_ || tries_.empty()) return Step::kWait;
+  in_flight_ = false;
+  KeyframeBTry& last = tries_.back();
+  last.accepted = accepted;
+  last.failure = failure;
+  last.reason = accepted ? std::string() : reason;
+  if (accepted) {
+    open_ = false;
+    return Step::kDone;
+  }
+  if (!MoreMotionMayCure(failure)) return Fail(reason);
+  if (lost_) return Fail("lost track after " + RefusalSummary() + " (last: " + reason + ")");
+  if (static_cast<int>(tries_.size()) >= options_.max_tries) {
+    return Fail("no accepted keyframe B after " + RefusalSummary() + " (last: " + reason + ")");
+  }
+  // More motion from the same A: the next B must see clearly more parallax than this one.
+  gate_.RequireParallax(last.gate_parallax_deg * options_.retry_parallax_growth);
+  return Step::kWait;
+}
+
+CaptureSession::Step CaptureSession::OnTime(double time_s) {
+  if (!open_ || in_flight_) return Step::kWait;
+  if (time_s - start_time_s_ <= options_.timeout_s) return Step::kWait;
+  std::string reason =
+      "not enough motion: no keyframe B within " + std::to_string(options_.timeout_s) +
+      " s (last frame: " + std::to_string(last_decision_.tracks) + " tracks, parallax " +
+      std::to_string(last_decision_.median_parallax_deg) + " deg of " +
+      std::to_string(gate_.required_parallax_deg()) + "; " + last_decision_.reason + ")";
+  if (!tries_.empty()) reason += "; " + RefusalSummary();
+  return Fail(std::move(reason));
+}
+
+std::vector<TrackCorrespondence> CaptureSession::Tracks() const {
+  std::vector<TrackCorrespondence> out;
+  const auto& a = gate_.track_origins_a();
+  const auto& b = gate_.track_positions();
+  out.reserve(a.size());
+  for (size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    out.push_back({Eigen::Vector2d(a[i].x, a[i].y), Eigen::Vector2d(b[i].x, b[i].y)});
+  }
+  return out;
+}
+
+}  // namespace mm

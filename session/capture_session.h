@@ -1,0 +1,100 @@
+#pragma once
+// One capture from keyframe A to an accepted pair, as a state machine over frames and the
+// reconstruction's verdicts (no threads, no clock: times are given), shared by the daemon and
+// `monomesh eval --captures` so both run the same gate and the same policy:
+//   Start (keyframe A) -> OnFrame per frame: the keyframe gate (recon/keyframe_gate.h) tracks
+//   A's corners and says when the reconstruction will accept the pair -> kSubmitB: the caller
+//   reconstructs A with this B (and the gate's tracks) -> OnResult: an entry ends the capture;
+//   a refusal that more motion can cure (MoreMotionMayCure: too little parallax, rotation,
+//   planar, no clear cheirality winner) keeps tracking from A and asks the next B for more
+//   parallax than the refused one; any other refusal, lost track or the timeout ends it.
+// While a B is being reconstructed the gate keeps tracking, so a retry can follow at once.
+//
+// Thread-safety: thread-bound (one session per capture, driven by one thread).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "recon/keyframe_gate.h"
+#include "recon/pipeline.h"
+
+namespace mm {
+
+struct CaptureSessionOptions {
+  KeyframeGateOptions gate;
+  double timeout_s = 30.0;  ///< No accepted B this long after A: the capture fails.
+  /// After a refused B, the next must reach this factor times the refused B's gate parallax.
+  double retry_parallax_growth = 1.25;
+  int max_tries = 10;  ///< B reconstructions per capture at most.
+  [[nodiscard]] std::string Check() const;
+};
+
+/// One keyframe B handed to the reconstruction, and what it said.
+struct KeyframeBTry {
+  uint64_t frame_sequence = 0;
+  double seconds_after_a = 0.0;    ///< Frame time of B minus that of A.
+  double gate_parallax_deg = 0.0;  ///< The gate's median triangulation angle at B.
+  int tracks = 0;
+  bool accepted = false;
+  TwoViewFailure failure = TwoViewFailure::kNone;
+  std::string reason;  ///< The reconstruction's failure reason (empty when accepted).
+};
+
+class CaptureSession {
+ public:
+  enum class Step {
+    kWait,     ///< Nothing to do: keep feeding frames (or wait for the result).
+    kSubmitB,  ///< Reconstruct A with this frame as B (Tracks() are its correspondences).
+    kDone,     ///< The reconstruction accepted B: the capture is over, with an entry.
+    kFailed,   ///< The capture is over without one: failure_reason() says why.
+  };
+
+  CaptureSession(const Eigen::Matrix3d& K, CaptureSessionOptions options);
+
+  /// Opens a capture on keyframe A (8-bit gray, undistorted) at frame time `time_s`. Returns
+  /// the number of corners found.
+  int Start(const cv::Mat& gray_a, double time_s);
+
+  /// One newer frame (8-bit gray, undistorted). `can_submit`: the reconstruction is idle, so
+  /// a B may be handed to it now (otherwise the gate only keeps its tracks alive).
+  Step OnFrame(const cv::Mat& gray, uint64_t sequence, double time_s, bool can_submit);
+
+  /// The reconstruction's verdict on the B of the last kSubmitB.
+  Step OnResult(bool accepted, TwoViewFailure failure, const std::string& reason);
+
+  /// Without a frame (a timer): kFailed once the timeout has passed with no B in flight.
+  Step OnTime(double time_s);
+
+  /// Ends the capture from outside (a camera or worker error); a no-op when already ended.
+  void Abort(const std::string& reason) {
+    if (open_) Fail(reason);
+  }
+
+  [[nodiscard]] bool open() const { return open_; }
+  [[nodiscard]] bool b_in_flight() const { return in_flight_; }
+  [[nodiscard]] const GateDecision& last_decision() const { return last_decision_; }
+  [[nodiscard]] const std::vector<KeyframeBTry>& tries() const { return tries_; }
+  [[nodiscard]] const std::string& failure_reason() const { return failure_reason_; }
+  /// The gate's tracks from A to the last frame, as correspondences for the reconstruction.
+  [[nodiscard]] std::vector<TrackCorrespondence> Tracks() const;
+  /// "n refused: reason (k); reason (m)" over the refused tries, for messages.
+  [[nodiscard]] std::string RefusalSummary() const;
+
+ private:
+  Step Fail(std::string reason);
+
+  CaptureSessionOptions options_;
+  KeyframeGate gate_;
+  bool open_ = false;
+  bool in_flight_ = false;
+  bool lost_ = false;  // The track was lost while a B was in flight.
+  double start_time_s_ = 0.0;
+  GateDecision last_decision_;
+  std::vector<KeyframeBTry> tries_;
+  std::string failure_reason_;
+};
+
+}  // namespace mm
