@@ -6,6 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "entry/preview.h"
 #include "render/mesh_eval.h"
 
 namespace mm {

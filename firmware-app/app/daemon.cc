@@ -167,7 +167,7 @@ class Worker {
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
       } else {
-        const SpoolCommit commit = spool_->Commit(result.files, std::time(nullptr));
+        const SpoolCommit commit = WriteEntry(*spool_, result.entry, std::time(nullptr));
         if (commit.ok) {
           outcome.ok = true;
           outcome.entry = commit.entry.string();
