@@ -7,7 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "entry/preview.h"
-#include "render/mesh_eval.h"
+#include "eval/mesh_checks.h"
 
 namespace mm {
 namespace {

@@ -1,4 +1,4 @@
-#include "render/mesh_eval.h"
+#include "eval/mesh_checks.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
