@@ -18,8 +18,8 @@ Runner AddEvalCommand(CLI::App& app);
 Runner AddCtlCommand(CLI::App& app);
 /// Adds `feed`: plays a dataset into a v4l2loopback device.
 Runner AddFeedCommand(CLI::App& app);
-/// Adds `gpio-test`: prints button events of a GPIO line.
-Runner AddGpioTestCommand(CLI::App& app);
+/// Adds `gpio-watch`: prints button events of a GPIO line.
+Runner AddGpioWatchCommand(CLI::App& app);
 /// Adds `calibrate`: chessboard images -> Calib_Results.m, calibration.toml, report PNG.
 Runner AddCalibrateCommand(CLI::App& app);
 /// Adds `undistort`: one image through a calibration's remap tables.
