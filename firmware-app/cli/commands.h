@@ -12,7 +12,7 @@ using Runner = std::function<int()>;
 
 /// Adds `recon`: one pair of images -> mesh files in a folder.
 Runner AddReconCommand(CLI::App& app);
-/// Adds `eval`: two-view accuracy and timing on a TUM-format folder (recon/evaluation.h).
+/// Adds `eval`: two-view accuracy and timing on a TUM-format folder (eval/tum_pairs.h).
 Runner AddEvalCommand(CLI::App& app);
 /// Adds `ctl`: trigger | status | ping a running monomeshd.
 Runner AddCtlCommand(CLI::App& app);
