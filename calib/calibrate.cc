@@ -194,7 +194,7 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
   for (size_t k = 0; k < used.size(); ++k) {
     for (int j = 0; j < 3; ++j) {
       poses[k][static_cast<size_t>(j)] = rvecs[k].at<double>(j);
-      poses[k][static_cast<size_t>(3 + j)] = tvecs[k].at<double>(j);
+      poses[k][3 + static_cast<size_t>(j)] = tvecs[k].at<double>(j);
     }
   }
 

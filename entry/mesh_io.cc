@@ -174,7 +174,7 @@ std::vector<Eigen::Matrix<uint8_t, 3, 1>> SampleColors(const cv::Mat& image_bgr,
     const int u = std::clamp(static_cast<int>(std::lround(px.x())), 0, image_bgr.cols - 1);
     const int v = std::clamp(static_cast<int>(std::lround(px.y())), 0, image_bgr.rows - 1);
     if (image_bgr.type() == CV_8UC3) {
-      const cv::Vec3b bgr = image_bgr.at<cv::Vec3b>(v, u);
+      const cv::Vec3b& bgr = image_bgr.at<cv::Vec3b>(v, u);
       out.emplace_back(bgr[2], bgr[1], bgr[0]);
     } else {
       const uint8_t g = image_bgr.at<uint8_t>(v, u);
