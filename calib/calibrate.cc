@@ -23,7 +23,7 @@ double Seconds(Clock::time_point since) {
 constexpr int kIntr = 10;
 constexpr int kPose = 6;  // Rodrigues vector, translation.
 
-// Reprojection residual of one board corner through the Bouguet model (camera_model.h).
+// Reprojection residual of one board corner through the Bouguet model (ProjectBouguet).
 struct CornerResidual {
   CornerResidual(const cv::Point3f& board_point, const cv::Point2f& observed)
       : X(board_point.x), Y(board_point.y), u(observed.x), v(observed.y) {}
@@ -36,18 +36,14 @@ struct CornerResidual {
     p[0] += pose[3];
     p[1] += pose[4];
     p[2] += pose[5];
-    const T x = p[0] / p[2];
-    const T y = p[1] / p[2];
-    const T r2 = x * x + y * y;
-    const T r4 = r2 * r2;
-    const T r6 = r4 * r2;
-    const T radial = T(1.0) + intr[5] * r2 + intr[6] * r4 + intr[9] * r6;
-    const T xd = radial * x + T(2.0) * intr[7] * x * y + intr[8] * (r2 + T(2.0) * x * x);
-    const T yd = radial * y + intr[7] * (r2 + T(2.0) * y * y) + T(2.0) * intr[8] * x * y;
-    const T fc1 = intr[0];
-    const T fc2 = intr[0] * intr[1];
-    residual[0] = fc1 * (xd + intr[4] * yd) + intr[2] - T(u);
-    residual[1] = fc2 * yd + intr[3] - T(v);
+    // The model's order (BouguetCamera::Intrinsics()), with fc2 = f * aspect.
+    const T intrinsics[BouguetCamera::kNumIntrinsics] = {
+        intr[0], intr[0] * intr[1], intr[2], intr[3], intr[4],
+        intr[5], intr[6],           intr[7], intr[8], intr[9]};
+    T pixel[2];
+    ProjectBouguet(intrinsics, p, pixel);
+    residual[0] = pixel[0] - T(u);
+    residual[1] = pixel[1] - T(v);
     return true;
   }
 
@@ -198,7 +194,7 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
   for (size_t k = 0; k < used.size(); ++k) {
     for (int j = 0; j < 3; ++j) {
       poses[k][static_cast<size_t>(j)] = rvecs[k].at<double>(j);
-      poses[k][static_cast<size_t>(3 + j)] = tvecs[k].at<double>(j);
+      poses[k][3 + static_cast<size_t>(j)] = tvecs[k].at<double>(j);
     }
   }
 

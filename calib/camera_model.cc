@@ -75,8 +75,10 @@ Eigen::Vector2d BouguetCamera::DistortedFromPixel(const Eigen::Vector2d& pixel) 
 }
 
 Eigen::Vector2d BouguetCamera::Project(const Eigen::Vector3d& point_in_cam) const {
-  const Eigen::Vector2d x_n = point_in_cam.head<2>() / point_in_cam.z();
-  return PixelFromDistorted(Distort(x_n));
+  const IntrinsicsVector intrinsics = Intrinsics();
+  Eigen::Vector2d pixel;
+  ProjectBouguet(intrinsics.data(), point_in_cam.data(), pixel.data());
+  return pixel;
 }
 
 Eigen::Vector2d BouguetCamera::Unproject(const Eigen::Vector2d& pixel) const {

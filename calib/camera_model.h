@@ -16,6 +16,27 @@
 
 namespace mm {
 
+/// The Bouguet projection of a point in the camera frame for any scalar type (double, or
+/// ceres::Jet in the calibration's residual): `intrinsics` in the order of
+/// BouguetCamera::Intrinsics() [fc1 fc2 cc1 cc2 alpha_c kc1 kc2 kc3 kc4 kc5]; Z > 0 expected.
+/// The one definition of the model: BouguetCamera::Project and CalibrateFromImages use it.
+template <typename T>
+void ProjectBouguet(const T* intrinsics, const T* point_in_cam, T* pixel) {
+  const T x = point_in_cam[0] / point_in_cam[2];
+  const T y = point_in_cam[1] / point_in_cam[2];
+  const T* kc = intrinsics + 5;
+  const T r2 = x * x + y * y;
+  const T r4 = r2 * r2;
+  const T r6 = r4 * r2;
+  const T radial = T(1.0) + kc[0] * r2 + kc[1] * r4 + kc[4] * r6;
+  const T dx = T(2.0) * kc[2] * x * y + kc[3] * (r2 + T(2.0) * x * x);
+  const T dy = kc[2] * (r2 + T(2.0) * y * y) + T(2.0) * kc[3] * x * y;
+  const T xd = radial * x + dx;
+  const T yd = radial * y + dy;
+  pixel[0] = intrinsics[0] * (xd + intrinsics[4] * yd) + intrinsics[2];
+  pixel[1] = intrinsics[1] * yd + intrinsics[3];
+}
+
 /// Intrinsics in the toolbox's parameterization, plus the image size they belong to.
 struct BouguetCamera {
   Eigen::Vector2d fc{1.0, 1.0};  ///< Focal lengths, pixels.

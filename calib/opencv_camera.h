@@ -26,7 +26,7 @@ OpenCvCamera ToOpenCv(const BouguetCamera& camera);
 
 /// Converts an OpenCV K + dist (0, 4, 5, 8, 12 or 14 values; the rational, thin-prism and tilt
 /// terms must be zero since the Bouguet model has none). Returns "" or "field: problem".
-std::string FromOpenCv(const cv::Matx33d& K, const std::vector<double>& dist, cv::Size size,
-                       BouguetCamera* camera);
+[[nodiscard]] std::string FromOpenCv(const cv::Matx33d& K, const std::vector<double>& dist,
+                                     cv::Size size, BouguetCamera* camera);
 
 }  // namespace mm

@@ -40,7 +40,7 @@ class CaptureThread {
   CaptureThread& operator=(const CaptureThread&) = delete;
 
   /// Opens the source and starts the thread. Returns an empty string or the open error.
-  std::string Start();
+  [[nodiscard]] std::string Start();
   void Stop();
 
   /// The newest frame, or null before the first one.

@@ -36,9 +36,10 @@ class FrameSource {
  public:
   virtual ~FrameSource() = default;
   /// Opens the device or dataset. Returns an empty string or a message naming what failed.
-  virtual std::string Open() = 0;
+  [[nodiscard]] virtual std::string Open() = 0;
   /// Blocks up to `timeout` for the next frame.
-  virtual ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout, std::string* error) = 0;
+  [[nodiscard]] virtual ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout,
+                                        std::string* error) = 0;
   virtual void Close() = 0;
   /// A one-line human description (URI and what was negotiated).
   [[nodiscard]] virtual std::string Describe() const = 0;

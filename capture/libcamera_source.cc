@@ -17,6 +17,7 @@
 
 #include "base/poll.h"
 #include "capture/libcamera_ipc.h"
+#include "capture/source_uri.h"
 
 extern char** environ;
 
@@ -320,5 +321,40 @@ std::string LibcameraSource::Describe() const {
   std::lock_guard lock(describe_mutex_);
   return description_;
 }
+
+namespace {
+
+std::unique_ptr<FrameSource> MakeLibcameraSource(const SourceUri& p, const std::string&) {
+  if (p.target.empty()) {
+    throw SourceUriError("camera URI '" + p.text + "': libcamera needs a camera id or index, e.g. libcamera:0");
+  }
+  LibcameraOptions o;
+  o.camera = p.target;
+  for (const auto& [key, value] : p.params) {
+    if (key == "width") {
+      o.width = UriNumber<int>(p, key, value, 1, 16384);
+    } else if (key == "height") {
+      o.height = UriNumber<int>(p, key, value, 1, 16384);
+    } else if (key == "format") {
+      o.format = ParsePixelFormat(value);
+      if (!o.format) throw SourceUriError("camera URI '" + p.text + "': format=" + value + " is not supported");
+    } else if (key == "gray") {
+      o.gray = UriBool(p, key, value);
+    } else if (key == "timeout_ms") {
+      o.lost_after_ms = UriNumber<int>(p, key, value, 100, 600000);
+    } else {
+      throw SourceUriError("camera URI '" + p.text + "': unknown parameter '" + key +
+                           "' (libcamera takes width, height, format, gray, timeout_ms)");
+    }
+  }
+  if ((o.width == 0) != (o.height == 0)) {
+    throw SourceUriError("camera URI '" + p.text + "': give both width and height");
+  }
+  return std::make_unique<LibcameraSource>(o);
+}
+
+}  // namespace
+
+MM_REGISTER_FRAME_SOURCE(libcamera, MakeLibcameraSource);
 
 }  // namespace mm

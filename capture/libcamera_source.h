@@ -36,7 +36,7 @@ class WorkerProcess {
   /// Starts `argv[0]` connected by a SOCK_SEQPACKET pair: the child's end is its fd 3
   /// (lcipc::kSocketFd), ours goes to `parent_socket`. Behind the command prefix in
   /// $MM_LIBCAMERA_WORKER_LAUNCHER if set (e.g. an emulator). Returns an error or "".
-  std::string Spawn(const std::vector<std::string>& argv, UniqueFd* parent_socket);
+  [[nodiscard]] std::string Spawn(const std::vector<std::string>& argv, UniqueFd* parent_socket);
   /// Waits up to `timeout` for the child to exit on its own, then kills it; reaps it.
   /// Returns how it ended ("exited 0", "killed by signal 11 (Segmentation fault)").
   std::string Reap(std::chrono::milliseconds timeout);
@@ -71,8 +71,9 @@ class LibcameraSource final : public FrameSource {
   explicit LibcameraSource(LibcameraOptions options);
   ~LibcameraSource() override;
 
-  std::string Open() override;
-  ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout, std::string* error) override;
+  [[nodiscard]] std::string Open() override;
+  [[nodiscard]] ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout,
+                                std::string* error) override;
   void Close() override;
   [[nodiscard]] std::string Describe() const override;
 
@@ -89,7 +90,7 @@ class LibcameraSource final : public FrameSource {
   };
   /// The camera's resolved id once known, else the id or index asked for.
   [[nodiscard]] const std::string& Name() const { return id_.empty() ? options_.camera : id_; }
-  std::string OpenCamera();
+  [[nodiscard]] std::string OpenCamera();
   /// Ends the worker (politely when `stop`, else SIGKILL) and unmaps its buffers.
   void CloseCamera(bool stop);
   std::string Lose(const std::string& why);

@@ -26,9 +26,9 @@ class LoopbackFeeder {
   std::string Open(const std::string& device, int width, int height, PixelFormat format,
                    double fps);
   /// Writes one BGR8 frame (converted to the format). Returns an error message or "".
-  std::string Write(const cv::Mat& bgr);
+  [[nodiscard]] std::string Write(const cv::Mat& bgr);
   /// Writes already encoded bytes (exactly one frame).
-  std::string WriteRaw(const std::string& bytes);
+  [[nodiscard]] std::string WriteRaw(const std::string& bytes);
   void Close() { fd_.reset(); }
 
  private:

@@ -55,7 +55,7 @@ class MjpegDecoder {
 
   /// Decodes a JPEG (camera MJPEG frames without Huffman tables included) into BGR8 or GRAY8,
   /// reusing `out`'s memory when the size matches. Returns an error message, empty on success.
-  std::string Decode(const uint8_t* data, size_t size, bool gray, cv::Mat* out);
+  [[nodiscard]] std::string Decode(const uint8_t* data, size_t size, bool gray, cv::Mat* out);
 
  private:
   void* handle_ = nullptr;

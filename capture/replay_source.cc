@@ -1,9 +1,13 @@
 #include "capture/replay_source.h"
 
+#include <charconv>
+#include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
 #include <time.h>
+
+#include "capture/source_uri.h"
 
 namespace mm {
 
@@ -86,5 +90,54 @@ std::string ReplaySource::Describe() const {
          (options_.realtime ? "realtime x" + std::to_string(options_.speed) : "max rate") +
          (options_.loop ? ", loop" : "") + ")";
 }
+
+namespace {
+
+std::unique_ptr<FrameSource> MakeReplaySource(const SourceUri& p, const std::string& base_dir) {
+  if (p.target.empty()) throw SourceUriError("camera URI '" + p.text + "': replay needs a folder");
+  ReplayOptions options;
+  for (const auto& [key, value] : p.params) {
+    if (key == "rate") {
+      if (value != "realtime" && value != "max") {
+        throw SourceUriError("camera URI '" + p.text + "': rate=" + value +
+                             " (expected realtime or max)");
+      }
+      options.realtime = value == "realtime";
+    } else if (key == "speed") {
+      const auto r = std::from_chars(value.data(), value.data() + value.size(), options.speed);
+      if (r.ec != std::errc() || r.ptr != value.data() + value.size() || !(options.speed > 0)) {
+        throw SourceUriError("camera URI '" + p.text + "': speed=" + value +
+                             " (expected a number > 0)");
+      }
+    } else if (key == "loop") {
+      options.loop = UriBool(p, key, value);
+    } else if (key == "gray") {
+      options.gray = UriBool(p, key, value);
+    } else if (key == "list") {
+      options.list = value;
+    } else if (key == "width" || key == "height") {
+      int v = 0;
+      const auto r = std::from_chars(value.data(), value.data() + value.size(), v);
+      if (r.ec != std::errc() || r.ptr != value.data() + value.size() || v <= 0 || v > 16384) {
+        throw SourceUriError("camera URI '" + p.text + "': " + key + "=" + value +
+                             " (expected a size in pixels)");
+      }
+      (key == "width" ? options.width : options.height) = v;
+    } else {
+      throw SourceUriError("camera URI '" + p.text + "': unknown parameter '" + key +
+                           "' (replay takes rate, speed, loop, gray, list, width, height)");
+    }
+  }
+  if ((options.width > 0) != (options.height > 0)) {
+    throw SourceUriError("camera URI '" + p.text + "': give both width and height, or neither");
+  }
+  std::filesystem::path folder(p.target);
+  if (folder.is_relative()) folder = std::filesystem::path(base_dir) / folder;
+  return std::make_unique<ReplaySource>(folder.lexically_normal(), options);
+}
+
+}  // namespace
+
+MM_REGISTER_FRAME_SOURCE(replay, MakeReplaySource);
 
 }  // namespace mm

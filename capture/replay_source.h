@@ -28,8 +28,9 @@ class ReplaySource final : public FrameSource {
  public:
   ReplaySource(std::filesystem::path folder, ReplayOptions options);
 
-  std::string Open() override;
-  ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout, std::string* error) override;
+  [[nodiscard]] std::string Open() override;
+  [[nodiscard]] ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout,
+                                std::string* error) override;
   void Close() override;
   [[nodiscard]] std::string Describe() const override;
 

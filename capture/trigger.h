@@ -24,12 +24,12 @@ class Trigger {
  public:
   virtual ~Trigger() = default;
   /// Acquires the resource. Returns "" or a message naming what failed and why.
-  virtual std::string Open() = 0;
+  [[nodiscard]] virtual std::string Open() = 0;
   /// The fd to poll for POLLIN (valid after a successful Open()).
   [[nodiscard]] virtual int fd() const = 0;
   /// After POLLIN: reads what is pending. Returns 1 with `event` filled, 0 when the pending
   /// input produced no event (e.g. a bounce), -1 on error (`error` filled).
-  virtual int ReadEvent(TriggerEvent* event, std::string* error) = 0;
+  [[nodiscard]] virtual int ReadEvent(TriggerEvent* event, std::string* error) = 0;
   [[nodiscard]] virtual std::string Describe() const = 0;
 };
 
@@ -68,9 +68,9 @@ class GpioButton final : public Trigger {
   GpioButton(const GpioButton&) = delete;
   GpioButton& operator=(const GpioButton&) = delete;
 
-  std::string Open() override;
+  [[nodiscard]] std::string Open() override;
   [[nodiscard]] int fd() const override { return fd_; }
-  int ReadEvent(TriggerEvent* event, std::string* error) override;
+  [[nodiscard]] int ReadEvent(TriggerEvent* event, std::string* error) override;
   [[nodiscard]] std::string Describe() const override;
   void Close();
 
@@ -93,9 +93,9 @@ class GpioButton final : public Trigger {
 class SignalTrigger final : public Trigger {
  public:
   explicit SignalTrigger(int signal_number);
-  std::string Open() override;
+  [[nodiscard]] std::string Open() override;
   [[nodiscard]] int fd() const override { return fd_.get(); }
-  int ReadEvent(TriggerEvent* event, std::string* error) override;
+  [[nodiscard]] int ReadEvent(TriggerEvent* event, std::string* error) override;
   [[nodiscard]] std::string Describe() const override;
 
  private:

@@ -61,8 +61,9 @@ class V4l2Source final : public FrameSource {
   explicit V4l2Source(V4l2Options options);
   ~V4l2Source() override;
 
-  std::string Open() override;
-  ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout, std::string* error) override;
+  [[nodiscard]] std::string Open() override;
+  [[nodiscard]] ReadStatus Read(Frame* frame, std::chrono::milliseconds timeout,
+                                std::string* error) override;
   void Close() override;
   [[nodiscard]] std::string Describe() const override;
 
@@ -78,10 +79,10 @@ class V4l2Source final : public FrameSource {
     size_t length = 0;
   };
 
-  std::string OpenDevice();
+  [[nodiscard]] std::string OpenDevice();
   void CloseDevice();
   std::string Lose(const std::string& why);
-  std::string SetControls();
+  [[nodiscard]] std::string SetControls();
   void UnmapBuffers();
 
   V4l2Options options_;

@@ -106,3 +106,10 @@ function(mm_forbid_link a b)
     message(FATAL_ERROR "Layer rule broken: ${a} links ${b} (see docs/architecture.md)")
   endif()
 endfunction()
+
+# mm_forbid_links(A B C ...): mm_forbid_link(A B), mm_forbid_link(A C), ...
+function(mm_forbid_links a)
+  foreach(b IN LISTS ARGN)
+    mm_forbid_link(${a} ${b})
+  endforeach()
+endfunction()

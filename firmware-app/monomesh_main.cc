@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
       mm::cli::AddEvalCommand(app),
       mm::cli::AddCtlCommand(app),
       mm::cli::AddFeedCommand(app),
-      mm::cli::AddGpioTestCommand(app),
+      mm::cli::AddGpioWatchCommand(app),
       mm::cli::AddCalibrateCommand(app),
       mm::cli::AddUndistortCommand(app),
       mm::cli::AddRenderCommand(app),

@@ -261,13 +261,6 @@ void CollectInliers(const std::vector<double>& err, double threshold_sq, RansacR
 
 }  // namespace
 
-double MedianOf(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
 std::string RansacOptions::Check() const {
   if (!(threshold_px > 0)) return "threshold_px: must be > 0";
   if (!(confidence > 0 && confidence < 1)) return "confidence: must be in (0, 1)";

@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "base/stats.h"
+
 namespace mm {
 
 using Points2 = std::span<const Eigen::Vector2d>;
@@ -172,7 +174,6 @@ PairClassification ClassifyPair(Points2 a, Points2 b, const RansacResult& f,
                                 const RansacResult& h, const Eigen::Matrix3d& k,
                                 const ClassifyOptions& options);
 
-/// Median of a copy of `v` (upper median; 0 for an empty vector).
-double MedianOf(std::vector<double> v);
+// MedianOf (the upper median of a copy; 0 for an empty vector) is base/stats.h's.
 
 }  // namespace mm

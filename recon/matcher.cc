@@ -13,7 +13,7 @@
 #include <limits>
 #include <vector>
 
-#include "recon/features.h"
+#include "recon/matcher.h"
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "recon/matcher.cc"

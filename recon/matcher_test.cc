@@ -4,7 +4,7 @@
 #include <iostream>
 #include <random>
 
-#include "recon/features.h"
+#include "recon/matcher.h"
 
 namespace mm {
 namespace {

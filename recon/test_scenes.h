@@ -7,11 +7,30 @@
 
 namespace mm::test {
 
+// An n x n grid of points on the plane z = 2 seen by a camera with f = 100, c = (50, 50).
+inline void MakeGrid(int n, std::vector<Eigen::Vector3d>* points,
+                     std::vector<Eigen::Vector2d>* pixels) {
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector2d px(10.0 + 80.0 * i / (n - 1), 10.0 + 80.0 * j / (n - 1));
+      pixels->push_back(px);
+      points->push_back(Eigen::Vector3d((px.x() - 50) / 100 * 2, (px.y() - 50) / 100 * 2, 2.0));
+    }
+  }
+}
+
+// The camera of MakeGrid.
+inline Eigen::Matrix3d GridK() {
+  Eigen::Matrix3d K;
+  K << 100, 0, 50, 0, 100, 50, 0, 0, 1;
+  return K;
+}
+
 struct SyntheticPair {
   Eigen::Matrix3d k;
-  Eigen::Matrix3d rotation;       ///< cam_b_from_cam_a.
-  Eigen::Vector3d translation;    ///< cam_b_from_cam_a (not normalized).
-  std::vector<Eigen::Vector3d> points;          ///< In camera A (outliers: their true point).
+  Eigen::Matrix3d rotation;             ///< cam_b_from_cam_a.
+  Eigen::Vector3d translation;          ///< cam_b_from_cam_a (not normalized).
+  std::vector<Eigen::Vector3d> points;  ///< In camera A (outliers: their true point).
   std::vector<Eigen::Vector2d> pixels_a, pixels_b;
   std::vector<bool> is_outlier;
 };
@@ -22,8 +41,8 @@ enum class SceneShape { kVolume, kPlane };
 /// [R | t]; pixel noise (sigma `noise_px`) and a share of outliers (B replaced by a random
 /// pixel) from a seeded mt19937.
 inline SyntheticPair MakePair(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation,
-                              double noise_px, double outlier_share, unsigned seed,
-                              int count = 400, SceneShape shape = SceneShape::kVolume) {
+                              double noise_px, double outlier_share, unsigned seed, int count = 400,
+                              SceneShape shape = SceneShape::kVolume) {
   SyntheticPair s;
   s.k << 520, 0, 320, 0, 525, 240, 0, 0, 1;
   s.rotation = rotation;

@@ -55,7 +55,7 @@ if command -v colmap >/dev/null; then
   err=$(sed -n 's/.*Mean reprojection error: *\([0-9.]*\)px.*/\1/p' "$work/colmap.txt")
   awk -v e="${err:-99}" 'BEGIN { exit !(e < 1.0) }' || fail "colmap reprojection error ${err:-?} px"
 else
-  echo "colmap not installed: model_analyzer skipped (the parser test in recon/mesh_test runs)"
+  echo "colmap not installed: model_analyzer skipped (the parser test in entry/mesh_io_test runs)"
 fi
 
 # 4. monomesh render draws the GLB from camera A: a good part of the image is covered.

@@ -4,6 +4,7 @@
 #include <EGL/eglext.h>
 #include <GLES3/gl3.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -218,7 +219,8 @@ bool Renderer::Impl::Init() {
     error = "EGL: eglGetPlatformDisplayEXT is missing (EGL_EXT_platform_base)";
     return false;
   }
-  display.handle = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  display.handle =
+      get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
   if (display.handle == EGL_NO_DISPLAY) {
     error = "EGL: no surfaceless display (EGL_MESA_platform_surfaceless; Mesa's libegl-mesa0)";
     return false;
@@ -425,8 +427,8 @@ RenderResult Renderer::Draw(int mesh_id, const RenderCamera& camera) {
     return out;
   }
   if (!impl_->MakeCurrent()) {
-    out.failure_reason = "EGL: cannot make the context current " +
-                         Hex(static_cast<unsigned>(eglGetError()));
+    out.failure_reason =
+        "EGL: cannot make the context current " + Hex(static_cast<unsigned>(eglGetError()));
     return out;
   }
   if (const std::string problem = camera.Check(); !problem.empty()) {
@@ -536,6 +538,14 @@ RenderResult Renderer::Draw(int mesh_id, const RenderCamera& camera) {
   }
   out.success = true;
   return out;
+}
+
+double FarPlaneFor(const Mesh& mesh, const Eigen::Isometry3d& cam_from_world) {
+  double far_plane = 1.0;
+  for (const Eigen::Vector3f& v : mesh.vertices) {
+    far_plane = std::max(far_plane, (cam_from_world * v.cast<double>()).z());
+  }
+  return 2.0 * far_plane;
 }
 
 }  // namespace mm

@@ -85,4 +85,8 @@ class Renderer {
 Eigen::Matrix4f GlProjectionFromK(const Eigen::Matrix3d& K, int width, int height,
                                   double near_plane, double far_plane);
 
+/// A far plane that holds the whole mesh seen from `cam_from_world`: twice the largest vertex
+/// depth, at least 2 scene units.
+double FarPlaneFor(const Mesh& mesh, const Eigen::Isometry3d& cam_from_world);
+
 }  // namespace mm

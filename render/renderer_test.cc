@@ -6,7 +6,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "render/mesh_eval.h"
+#include "entry/preview.h"
+#include "eval/mesh_checks.h"
 
 namespace mm {
 namespace {

@@ -40,11 +40,11 @@ class Spool {
 
   /// Creates the spool folder and removes leftovers of an interrupted write. Returns an empty
   /// string or a message naming the folder and the error.
-  std::string Recover(int* removed_leftovers = nullptr);
+  [[nodiscard]] std::string Recover(int* removed_leftovers = nullptr);
 
   /// Writes an entry named `<UTC time of when>-<next sequence>` atomically. On failure
   /// (e.g. ENOSPC) the temporary folder is removed and earlier entries are untouched.
-  SpoolCommit Commit(const std::vector<SpoolFile>& files, std::time_t when);
+  [[nodiscard]] SpoolCommit Commit(const std::vector<SpoolFile>& files, std::time_t when);
 
   /// Committed entries, oldest first.
   [[nodiscard]] std::vector<std::filesystem::path> Entries() const;

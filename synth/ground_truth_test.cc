@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "base/stats.h"
 #include "calib/calib_io.h"
 #include "dataset/tum.h"
 #include "synth/sequence.h"
@@ -58,12 +59,8 @@ Sequence Generate(const std::string& name, const BouguetCamera& camera, CameraPa
   return s;
 }
 
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  const auto k = static_cast<size_t>(p / 100.0 * static_cast<double>(v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
+// The order statistic at floor(p/100 (n - 1)).
+double Percentile(std::vector<double> v, double p) { return QuantileOf(std::move(v), p / 100.0); }
 
 // The written frames, read back through the project's readers.
 struct Written {

@@ -67,7 +67,7 @@ std::string SendControlCommand(const std::filesystem::path& path, const std::str
   while (reply.find('\n') == std::string::npos) {
     pollfd p{fd.get(), POLLIN, 0};
     const int ready = ::poll(&p, 1, static_cast<int>(timeout.count()));
-    if (ready == 0) throw ControlError("control socket " + path.string() + ": no reply in time");
+    if (ready == 0) throw ControlTimeout("control socket " + path.string() + ": no reply in time");
     if (ready < 0) {
       if (errno == EINTR) continue;
       throw ControlError(Errno(path, "poll"));

@@ -16,6 +16,12 @@ class ControlError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The daemon accepted the request but did not answer within the timeout (busy, not gone).
+class ControlTimeout : public ControlError {
+ public:
+  using ControlError::ControlError;
+};
+
 /// Creates, binds and listens on `path` (non-blocking, close-on-exec). A stale socket file
 /// left by a crashed daemon is replaced; a live daemon on it is an error.
 /// \throws ControlError naming the path.

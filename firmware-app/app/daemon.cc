@@ -177,7 +177,7 @@ class Worker {
         outcome.failure = result.recon.geometry.failure;
         outcome.refusal = result.error;
       } else {
-        const SpoolCommit commit = spool_->Commit(result.files, std::time(nullptr));
+        const SpoolCommit commit = WriteEntry(*spool_, result.entry, std::time(nullptr));
         if (commit.ok) {
           outcome.ok = true;
           outcome.entry = commit.entry.string();

@@ -1,34 +1,24 @@
 #pragma once
-// One capture's work after both keyframes are in: reconstruct the pair and encode everything a
-// spool entry holds (mesh.glb, mesh.ply, mesh.obj + mesh.mtl + texture.jpg, points.ply, the
-// COLMAP model cameras.txt + images.txt + points3D.txt with keyframe_b.jpg, preview.png,
-// calibration.toml, report.json). Shared by `monomesh recon` and the daemon's worker.
+// One capture's work after both keyframes are in: reconstruct the pair (recon/pipeline.h) and
+// make the spool entry from it (entry/entry.h). Shared by `monomesh recon` and the daemon's
+// worker.
 
-#include <nlohmann/json.hpp>
 #include <span>
 #include <string>
-#include <vector>
 
 #include "calib/camera_model.h"
+#include "entry/entry.h"
+#include "entry/report.h"
 #include "recon/pipeline.h"
 #include "session/capture_session.h"
-#include "spool/spool.h"
 
 namespace mm {
 
-/// Where a keyframe came from, for the report.
-struct KeyframeInfo {
-  uint64_t sequence = 0;
-  double source_time_s = 0.0;
-  int64_t capture_time_ns = 0;
-  std::string source;
-};
-
 struct PairJobResult {
   bool ok = false;
-  std::string error;               ///< The reconstruction's failure reason.
-  std::vector<SpoolFile> files;    ///< The entry's files (only when ok).
-  nlohmann::json report;           ///< Also written as report.json (always filled).
+  std::string error;   ///< The reconstruction's failure reason.
+  EncodedEntry entry;  ///< The entry's files (only when ok).
+  EntryReport report;  ///< Also written as report.json (always filled).
   PairReconstruction recon;
 };
 

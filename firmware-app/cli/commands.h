@@ -12,14 +12,14 @@ using Runner = std::function<int()>;
 
 /// Adds `recon`: one pair of images -> mesh files in a folder.
 Runner AddReconCommand(CLI::App& app);
-/// Adds `eval`: two-view accuracy and timing on a TUM-format folder (recon/evaluation.h).
+/// Adds `eval`: two-view accuracy and timing on a TUM-format folder (eval/tum_pairs.h).
 Runner AddEvalCommand(CLI::App& app);
 /// Adds `ctl`: trigger | status | ping a running monomeshd.
 Runner AddCtlCommand(CLI::App& app);
 /// Adds `feed`: plays a dataset into a v4l2loopback device.
 Runner AddFeedCommand(CLI::App& app);
-/// Adds `gpio-test`: prints button events of a GPIO line.
-Runner AddGpioTestCommand(CLI::App& app);
+/// Adds `gpio-watch`: prints button events of a GPIO line.
+Runner AddGpioWatchCommand(CLI::App& app);
 /// Adds `calibrate`: chessboard images -> Calib_Results.m, calibration.toml, report PNG.
 Runner AddCalibrateCommand(CLI::App& app);
 /// Adds `undistort`: one image through a calibration's remap tables.

@@ -29,7 +29,15 @@ int RunCtl(const std::string& command, std::filesystem::path socket, const std::
                         std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                             std::chrono::duration<double>(wait_s));
   while (std::chrono::steady_clock::now() < deadline) {
-    const json status = json::parse(SendControlCommand(socket, "status", 5s));
+    json status;
+    try {
+      status = json::parse(SendControlCommand(socket, "status", 5s));
+    } catch (const ControlTimeout& e) {
+      // A daemon busy tracking and reconstructing on a slow machine may answer late: ask
+      // again until the deadline (a daemon that is gone fails the connect, which is final).
+      std::cerr << "monomesh ctl: " << e.what() << "; asking again\n";
+      continue;
+    }
     const json& last = status["last_result"];
     if (last.is_object() && last.value("capture", uint64_t{0}) == capture) {
       std::cout << last.dump(2) << "\n";

@@ -1,22 +1,21 @@
 // `monomesh eval --dataset DIR --calib C [--list FILE] [--step N] [--json FILE]`: run the
 // two-view reconstruction on every pair (i, i+N) of a TUM-format folder and compare with its
-// ground truth (recon/evaluation.h holds the logic).
+// ground truth (eval/tum_pairs.h holds the logic).
 // `monomesh eval --captures --dataset DIR --calib C [--trigger-every S] [--json FILE]`: play a
 // continuous sequence through the daemon's gate and worker in simulated time and press capture
-// (session/capture_eval.h).
+// (eval/capture_eval.h).
 // `monomesh eval --dataset DIR --spool SPOOL [--feed-log FILE] [--json FILE]`: instead, compare
 // the daemon's spool entries (their report.json) with the dataset's ground truth
-// (app/entry_eval.h).
+// (eval/entry_eval.h).
 
 #include <fstream>
 #include <iostream>
 
-#include "app/entry_eval.h"
 #include "calib/calib_io.h"
 #include "cli/commands.h"
-#include "recon/evaluation.h"
-#include "render/mesh_eval.h"
-#include "session/capture_eval.h"
+#include "eval/capture_eval.h"
+#include "eval/entry_eval.h"
+#include "eval/tum_pairs.h"
 
 namespace mm::cli {
 namespace {
@@ -131,17 +130,7 @@ int RunEval(const EvalArgs& args) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
   }
-  // Mesh figures (issue 5): the pair's mesh rendered from camera A against A's depth.
-  options.mesh_evaluator = [](const PairReconstruction& pair, const Eigen::Matrix3d& K,
-                              const cv::Mat& gt_depth_m) {
-    const MeshDepthEval e = EvaluatePairMesh(pair, K, gt_depth_m);
-    MeshFigures f;
-    f.valid = e.success;
-    f.coverage = e.coverage;
-    f.depth_rel_err_median = e.median_rel_err;
-    f.depth_rel_err_p90 = e.p90_rel_err;
-    return f;
-  };
+  options.mesh_figures = true;  // Issue 5: the pair's mesh rendered from A against A's depth.
   const EvalResult result = EvaluateTumPairs(args.dataset, camera, options);
   if (!result.ok) {
     std::cerr << "monomesh eval: " << result.failure_reason << "\n";

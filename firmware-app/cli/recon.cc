@@ -2,7 +2,6 @@
 
 #include <fstream>
 #include <iostream>
-#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "app/pair_job.h"
@@ -12,8 +11,6 @@
 
 namespace mm::cli {
 namespace {
-
-using json = nlohmann::json;
 
 int RunRecon(const std::string& path_a, const std::string& path_b, const std::string& calib,
              const std::string& out_dir) {
@@ -40,13 +37,13 @@ int RunRecon(const std::string& path_a, const std::string& path_b, const std::st
     images[i] = undistorter.Apply(images[i]);
   }
   const PairJobResult result = RunPairJob(images[0], images[1], info[0], info[1],
-                                                  undistorter.output_camera(), PairOptions{});
+                                          undistorter.output_camera(), PairOptions{});
   if (!result.ok) {
     std::cerr << "monomesh recon: " << result.error << "\n";
     return 1;
   }
   std::filesystem::create_directories(out_dir);
-  for (const SpoolFile& f : result.files) {
+  for (const SpoolFile& f : result.entry.files) {
     std::ofstream out(std::filesystem::path(out_dir) / f.name, std::ios::binary);
     out.write(f.bytes.data(), static_cast<std::streamsize>(f.bytes.size()));
     if (!out) {
@@ -54,9 +51,9 @@ int RunRecon(const std::string& path_a, const std::string& path_b, const std::st
       return 1;
     }
   }
-  const json& c = result.report["counts"];
-  std::cout << "points " << c["points"] << ", mesh " << c["mesh_vertices"] << " vertices / "
-            << c["mesh_triangles"] << " triangles, " << result.report["timings_s"]["total_recon"]
+  const EntryReport::Counts& c = result.report.counts;
+  std::cout << "points " << c.points << ", mesh " << c.mesh_vertices << " vertices / "
+            << c.mesh_triangles << " triangles, " << result.report.timings_s.total_recon
             << " s; written to " << out_dir << "\n";
   return 0;
 }

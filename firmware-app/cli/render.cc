@@ -9,8 +9,8 @@
 
 #include "calib/calib_io.h"
 #include "cli/commands.h"
-#include "recon/mesh_gltf.h"
-#include "render/mesh_eval.h"
+#include "entry/mesh_gltf.h"
+#include "entry/preview.h"
 #include "render/renderer.h"
 
 namespace mm::cli {

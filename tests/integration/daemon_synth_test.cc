@@ -34,14 +34,10 @@ fs::path Synthesize(const std::string& name, const std::string& path, int frames
   return dir / "seq";
 }
 
-Eigen::Isometry3d RelativePose(const json& report) {
+Eigen::Isometry3d RelativePose(const EntryReport& report) {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      pose.linear()(i, j) = report["relative_pose"]["rotation"][i][j].get<double>();
-    }
-    pose.translation()(i) = report["relative_pose"]["translation"][i].get<double>();
-  }
+  pose.linear() = report.relative_pose.rotation;
+  pose.translation() = report.relative_pose.translation;
   return pose;
 }
 
@@ -62,19 +58,18 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
     const json result = daemon.TriggerAndWait(30s);
     ASSERT_TRUE(result.value("ok", false)) << result.dump() << "\n" << daemon.log();
     entries.emplace_back(result["entry"].get<std::string>());
-    const json report = json::parse(ReadAll(entries.back() / "report.json"));
-    if (report["keyframes"]["b"]["source_time_s"].get<double>() > last_time - 2.0) break;
+    if (ReadReport(entries.back()).keyframe_b.source_time_s > last_time - 2.0) break;
   }
   ASSERT_GE(entries.size(), 2u) << daemon.log();
 
   std::vector<double> rot_errors, dir_errors;
   for (size_t k = 0; k < entries.size(); ++k) {
     ExpectCompleteEntry(entries[k]);
-    const json report = json::parse(ReadAll(entries[k] / "report.json"));
-    const json& a = report["keyframes"]["a"];
-    const json& b = report["keyframes"]["b"];
-    const auto world_from_a = gt.WorldFromCamAt(a["source_time_s"].get<double>(), 0.0);
-    const auto world_from_b = gt.WorldFromCamAt(b["source_time_s"].get<double>(), 0.0);
+    const EntryReport report = ReadReport(entries[k]);
+    const KeyframeInfo& a = report.keyframe_a;
+    const KeyframeInfo& b = report.keyframe_b;
+    const auto world_from_a = gt.WorldFromCamAt(a.source_time_s, 0.0);
+    const auto world_from_b = gt.WorldFromCamAt(b.source_time_s, 0.0);
     ASSERT_TRUE(world_from_a && world_from_b);
     const Eigen::Isometry3d truth = CamBFromCamA(*world_from_a, *world_from_b);
     const Eigen::Isometry3d estimate = RelativePose(report);
@@ -85,10 +80,9 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
 
     // `monomesh eval` on the same pair of the folder (the two frames as a list).
     const fs::path list = daemon.dir() / ("pair" + std::to_string(k) + ".txt");
-    std::ofstream(list) << std::fixed << std::setprecision(6) << a["source_time_s"].get<double>()
-                        << " " << a["source"].get<std::string>() << "\n"
-                        << b["source_time_s"].get<double>() << " " << b["source"].get<std::string>()
-                        << "\n";
+    std::ofstream(list) << std::fixed << std::setprecision(6) << a.source_time_s << " " << a.source
+                        << "\n"
+                        << b.source_time_s << " " << b.source << "\n";
     const fs::path eval_json = daemon.dir() / ("eval" + std::to_string(k) + ".json");
     int status = 0;
     const std::string eval_out =
@@ -100,8 +94,8 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
     const json eval = json::parse(ReadAll(eval_json));
     const json& pair = eval["pairs"][0];
     std::cout << "[ figures  ] mesh " << k << ": frames "
-              << a["source"].get<std::string>().substr(seq.string().size() + 5) << " -> "
-              << b["source"].get<std::string>().substr(seq.string().size() + 5) << " (baseline "
+              << a.source.substr(seq.string().size() + 5) << " -> "
+              << b.source.substr(seq.string().size() + 5) << " (baseline "
               << truth.translation().norm() << " m, turn "
               << RotationErrorDeg(Eigen::Matrix3d::Identity(), truth.linear())
               << " deg): daemon rotation error " << rot << " deg, translation direction " << dir

@@ -23,8 +23,8 @@ TEST(Daemon, TriggerProducesCompleteEntryMatchingGroundTruth) {
   ASSERT_EQ(entry.parent_path(), daemon.spool());
   ExpectCompleteEntry(entry);
 
-  const json report = json::parse(ReadAll(entry / "report.json"));
-  EXPECT_GT(report["counts"]["mesh_vertices"].get<int>(), 200);
+  const EntryReport report = ReadReport(entry);
+  EXPECT_GT(report.counts.mesh_vertices, 200u);
   const std::string ply = ReadAll(entry / "mesh.ply");
   const auto pos = ply.find("element vertex ");
   ASSERT_NE(pos, std::string::npos);
@@ -32,18 +32,15 @@ TEST(Daemon, TriggerProducesCompleteEntryMatchingGroundTruth) {
 
   // Relative rotation within 2 degrees of the motion-capture ground truth of the two frames.
   const Trajectory gt = Trajectory::Read(kData / "groundtruth.txt");
-  const auto pose_a = gt.WorldFromCamAt(report["keyframes"]["a"]["source_time_s"].get<double>());
-  const auto pose_b = gt.WorldFromCamAt(report["keyframes"]["b"]["source_time_s"].get<double>());
+  const auto pose_a = gt.WorldFromCamAt(report.keyframe_a.source_time_s);
+  const auto pose_b = gt.WorldFromCamAt(report.keyframe_b.source_time_s);
   ASSERT_TRUE(pose_a && pose_b);
-  Eigen::Matrix3d r;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) r(i, j) = report["relative_pose"]["rotation"][i][j].get<double>();
-  }
+  const Eigen::Matrix3d& r = report.relative_pose.rotation;
   const double err = RotationErrorDeg(r, CamBFromCamA(*pose_a, *pose_b).linear());
   EXPECT_LT(err, 2.0);
-  std::cout << "[ figures  ] pair " << report["keyframes"]["a"]["source"] << " -> "
-            << report["keyframes"]["b"]["source"] << ": rotation error " << err << " deg, "
-            << report["counts"]["mesh_vertices"] << " vertices\n";
+  std::cout << "[ figures  ] pair \"" << report.keyframe_a.source << "\" -> \""
+            << report.keyframe_b.source << "\": rotation error " << err << " deg, "
+            << report.counts.mesh_vertices << " vertices\n";
 
   EXPECT_EQ(daemon.Status()["last_trigger"], "control socket");
   // SIGUSR1 is a trigger too (the same path as the socket and the GPIO button).
@@ -131,7 +128,8 @@ TEST(Daemon, GateTargetBelowTheReconstructionsMinimumExits78) {
 TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   DaemonProcess daemon("badcalib", "rate=max");
   const fs::path calib = daemon.dir() / "broken.toml";
-  std::ofstream(calib) << "[camera]\nimage_size = [640, 480]\nfc = [500]\ncc = [1, 2]\nkc = [0,0,0,0]\n";
+  std::ofstream(calib)
+      << "[camera]\nimage_size = [640, 480]\nfc = [500]\ncc = [1, 2]\nkc = [0,0,0,0]\n";
   std::ofstream(daemon.dir() / "monomeshd.toml", std::ios::app);
   std::string text = ReadAll(daemon.dir() / "monomeshd.toml");
   text.replace(text.find((kData / "calib.toml").string()), (kData / "calib.toml").string().size(),
@@ -163,7 +161,8 @@ TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
 
 // A copy of the bundled dataset the test may move away and back.
 fs::path CopyOfBundledData(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::copy(kData, dir, fs::copy_options::recursive);
   return dir;
@@ -196,7 +195,8 @@ TEST(Daemon, RotationOnlySequenceNeverTakesKeyframeB) {
   const json result = daemon.TriggerAndWait(30s);
   EXPECT_FALSE(result.value("ok", true)) << result.dump();
   EXPECT_NE(result.value("error", "").find("not enough motion"), std::string::npos)
-      << result.dump() << "\n" << daemon.log();
+      << result.dump() << "\n"
+      << daemon.log();
   EXPECT_EQ(daemon.log().find("keyframe B ="), std::string::npos) << daemon.log();
   EXPECT_TRUE(VisibleEntries(daemon.spool()).empty());
 }
@@ -255,7 +255,8 @@ TEST(Daemon, FullDiskIsReportedAndEarlierEntriesSurvive) {
   }
   const json& last = results.back();
   ASSERT_NE(last.value("error", "").find("No space left on device"), std::string::npos)
-      << last.dump() << "\n" << daemon.log();
+      << last.dump() << "\n"
+      << daemon.log();
   EXPECT_NE(daemon.log().find("spool write failed"), std::string::npos);
   const auto entries = VisibleEntries(daemon.spool());
   EXPECT_GE(entries.size(), 1u);

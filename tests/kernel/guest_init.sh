@@ -81,7 +81,7 @@ appliance() {
   monomesh feed --device /dev/video10 --dataset $ds --fps "$fps" --format yuyv --once \
     --hold-first --log $d/feed.log 2> $d/feed.err &
   feeder=$!
-  for i in $(seq 50); do [ "$(wc -l < $d/feed.log 2>/dev/null)" -ge 2 ] 2>/dev/null && break; sleep 0.2; done
+  for i in $(seq 50); do [ -f $d/feed.log ] && [ "$(wc -l < $d/feed.log)" -ge 2 ] && break; sleep 0.2; done
   monomeshd --config $d/monomeshd.toml 2> $d/monomeshd.log &
   daemon=$!
   for i in $(seq 150); do monomesh ctl ping --socket $d/control.sock > /dev/null 2>&1 && break; sleep 0.2; done

@@ -1,4 +1,4 @@
-#include "render/mesh_eval.h"
+#include "eval/mesh_checks.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -6,24 +6,9 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "base/stats.h"
+
 namespace mm {
-namespace {
-
-double Quantile(std::vector<double>* v, double q) {
-  const size_t k = static_cast<size_t>(q * static_cast<double>(v->size() - 1));
-  std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(k), v->end());
-  return (*v)[k];
-}
-
-double FarPlaneFor(const Mesh& mesh, const Eigen::Isometry3d& cam_from_world) {
-  double far_plane = 1.0;
-  for (const Eigen::Vector3f& v : mesh.vertices) {
-    far_plane = std::max(far_plane, (cam_from_world * v.cast<double>()).z());
-  }
-  return 2.0 * far_plane;
-}
-
-}  // namespace
 
 double ScaleFromPoints(std::span<const Eigen::Vector3d> points_in_cam,
                        std::span<const Eigen::Vector2d> pixels, const cv::Mat& gt_depth_m) {
@@ -37,7 +22,7 @@ double ScaleFromPoints(std::span<const Eigen::Vector3d> points_in_cam,
     if (gt > 0 && points_in_cam[i].z() > 0) ratios.push_back(gt / points_in_cam[i].z());
   }
   if (ratios.empty()) return 0.0;
-  return Quantile(&ratios, 0.5);
+  return QuantileOf(std::move(ratios), 0.5);
 }
 
 MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const RenderCamera& camera,
@@ -78,8 +63,8 @@ MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const Rend
   }
   out.coverage = static_cast<double>(out.covered_pixels) / out.gt_pixels;
   if (!errors.empty()) {
-    out.median_rel_err = Quantile(&errors, 0.5);
-    out.p90_rel_err = Quantile(&errors, 0.9);
+    out.median_rel_err = QuantileOf(errors, 0.5);
+    out.p90_rel_err = QuantileOf(std::move(errors), 0.9);
   }
   out.success = true;
   return out;
@@ -102,8 +87,8 @@ MeshDepthEval EvaluatePairMesh(const PairReconstruction& pair, const Eigen::Matr
     out.failure_reason = "ground truth must be CV_32FC1 (metres)";
     return out;
   }
-  const double scale = ScaleFromPoints(pair.geometry.points_in_cam_a, pair.point_pixels_a,
-                                       gt_depth_m);
+  const double scale =
+      ScaleFromPoints(pair.geometry.points_in_cam_a, pair.point_pixels_a, gt_depth_m);
   if (!(scale > 0)) {
     out.failure_reason = "no triangulated point has ground-truth depth";
     return out;
@@ -140,59 +125,6 @@ double MaskedNcc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
   const double var_b = sbb - sb * sb / static_cast<double>(n);
   if (!(var_a > 0 && var_b > 0)) return 0.0;
   return cov / std::sqrt(var_a * var_b);
-}
-
-RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height) {
-  RenderCamera cam;
-  cam.K = K;
-  cam.width = width;
-  cam.height = height;
-  // Median point of the mesh (per axis): robust to a few far vertices.
-  Eigen::Vector3d centre(0, 0, 1);
-  if (!mesh.vertices.empty()) {
-    for (int k = 0; k < 3; ++k) {
-      std::vector<double> c;
-      for (const Eigen::Vector3f& v : mesh.vertices) c.push_back(v[k]);
-      centre[k] = Quantile(&c, 0.5);
-    }
-  }
-  // Camera A's centre swung 40 degrees up about the centre (A's x axis; A's "up" is -y), and
-  // 30 % further away so the whole mesh stays in view.
-  const Eigen::Vector3d from_centre = -centre * 1.3;
-  const Eigen::Vector3d eye = centre + Eigen::AngleAxisd(40.0 * M_PI / 180.0,
-                                                         Eigen::Vector3d::UnitX()) * from_centre;
-  const Eigen::Vector3d z = (centre - eye).normalized();
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();  // y = down.
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d world_from_cam;
-  world_from_cam << x, y, z;
-  cam.cam_from_world.linear() = world_from_cam.transpose();
-  cam.cam_from_world.translation() = -world_from_cam.transpose() * eye;
-  cam.far_plane = 10.0 * (eye - centre).norm() + 1.0;
-  cam.near_plane = cam.far_plane * 1e-4;
-  return cam;
-}
-
-cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& texture_bgr,
-                      const Eigen::Matrix3d& K, int width, int height, std::string* error) {
-  RenderCamera a;
-  a.K = K;
-  a.width = width;
-  a.height = height;
-  a.far_plane = FarPlaneFor(mesh, a.cam_from_world);
-  a.near_plane = a.far_plane * 1e-4;
-  const RenderResult from_a = renderer.Render(mesh, texture_bgr, a);
-  const RenderResult oblique =
-      renderer.Render(mesh, texture_bgr, ObliqueCamera(mesh, K, width, height));
-  if (!from_a.success || !oblique.success) {
-    if (error != nullptr) {
-      *error = from_a.success ? oblique.failure_reason : from_a.failure_reason;
-    }
-    return {};
-  }
-  cv::Mat out;
-  cv::hconcat(from_a.rgb, oblique.rgb, out);
-  return out;
 }
 
 }  // namespace mm

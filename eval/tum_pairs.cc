@@ -1,4 +1,4 @@
-#include "recon/evaluation.h"
+#include "eval/tum_pairs.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,6 +11,7 @@
 
 #include "calib/undistort.h"
 #include "dataset/tum.h"
+#include "eval/mesh_checks.h"
 
 namespace mm {
 namespace {
@@ -71,6 +72,15 @@ void CompareDepth(const PairReconstruction& r, const cv::Mat& depth16, PairEval*
   out->depth_within_10pct = static_cast<double>(within) / static_cast<double>(est.size());
 }
 
+MeshFigures MeshFiguresOf(const MeshDepthEval& e) {
+  MeshFigures f;
+  f.valid = e.success;
+  f.coverage = e.coverage;
+  f.depth_rel_err_median = e.median_rel_err;
+  f.depth_rel_err_p90 = e.p90_rel_err;
+  return f;
+}
+
 EvalSummary Summarize(const std::vector<PairEval>& pairs) {
   EvalSummary s;
   s.pairs = static_cast<int>(pairs.size());
@@ -125,15 +135,6 @@ std::string EvalOptions::Check() const {
   if (threads < 0) return "threads: must be >= 0";
   if (!(max_depth_dt_s >= 0)) return "max_depth_dt_s: must be >= 0";
   return pair.Check();
-}
-
-double Percentile(std::vector<double> values, double percent) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double pos = std::clamp(percent, 0.0, 100.0) / 100.0 * static_cast<double>(values.size() - 1);
-  const auto lo = static_cast<size_t>(std::floor(pos));
-  const size_t hi = std::min(lo + 1, values.size() - 1);
-  return values[lo] + (pos - static_cast<double>(lo)) * (values[hi] - values[lo]);
 }
 
 EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetCamera& camera,
@@ -240,10 +241,10 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
           // reconstruction through the undistorted one: bring the depth there, unblended.
           if (undistorter) depth = undistorter->ApplyNearest(depth);
           CompareDepth(r, depth, &p);
-          if (options.mesh_evaluator) {
+          if (options.mesh_figures) {
             cv::Mat depth_m;
             depth.convertTo(depth_m, CV_32F, 1.0 / 5000.0);  // TUM: depth[m] = value / 5000.
-            p.mesh = options.mesh_evaluator(r, used->K(), depth_m);
+            p.mesh = MeshFiguresOf(EvaluatePairMesh(r, used->K(), depth_m));
           }
         }
       }

@@ -17,9 +17,9 @@ namespace mm {
 struct MeshDepthEval {
   bool success = false;
   std::string failure_reason;
-  int gt_pixels = 0;        ///< Pixels with ground-truth depth (> 0).
-  int covered_pixels = 0;   ///< Of those, pixels the mesh covers.
-  double coverage = 0.0;    ///< covered_pixels / gt_pixels.
+  int gt_pixels = 0;            ///< Pixels with ground-truth depth (> 0).
+  int covered_pixels = 0;       ///< Of those, pixels the mesh covers.
+  double coverage = 0.0;        ///< covered_pixels / gt_pixels.
   double median_rel_err = 0.0;  ///< |scale * d_mesh - d_gt| / d_gt over covered pixels.
   double p90_rel_err = 0.0;
 };
@@ -49,14 +49,5 @@ MeshDepthEval EvaluatePairMesh(const PairReconstruction& pair, const Eigen::Matr
 /// Normalized cross-correlation of the grey levels of two BGR8 (or GRAY8) images over the
 /// pixels where `mask` is non-zero; 0 when fewer than 2 pixels or no variance.
 double MaskedNcc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask);
-
-/// The operator's preview: the mesh from camera A (identity pose, K) beside an oblique view
-/// from above and behind A, looking at the mesh's median point. BGR8, 2 width x height.
-/// Returns an empty image and sets *error on failure.
-cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& texture_bgr,
-                      const Eigen::Matrix3d& K, int width, int height, std::string* error);
-
-/// The oblique camera used by RenderPreview (exposed for tests).
-RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height);
 
 }  // namespace mm

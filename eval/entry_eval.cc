@@ -1,27 +1,22 @@
-#include "app/entry_eval.h"
+#include "eval/entry_eval.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
+#include "base/stats.h"
 #include "dataset/tum.h"
+#include "entry/entry.h"
 
 namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 struct FedFrame {
   double write_start_s = 0, write_end_s = 0, dataset_time_s = 0;
@@ -108,20 +103,22 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
   for (const fs::path& dir : entries) {
     EntryEval e;
     e.entry = dir.filename().string();
-    json report;
+    EntryReport report;
     try {
-      std::ifstream in(dir / "report.json");
-      report = json::parse(in);
-      e.reconstructed = report.at("success").get<bool>();
-      if (!e.reconstructed) {
-        e.problem = "reconstruction failed: " + report.value("failure_reason", std::string());
+      if (std::string error = ReadEntryReport(dir, &report); !error.empty()) {
+        e.problem = error;
         result.entries.push_back(e);
         continue;
       }
-      double t[2];
+      e.reconstructed = report.success;
+      if (!e.reconstructed) {
+        e.problem = "reconstruction failed: " + report.failure_reason;
+        result.entries.push_back(e);
+        continue;
+      }
+      double t[2] = {report.keyframe_a.source_time_s, report.keyframe_b.source_time_s};
       const char* names[2] = {"a", "b"};
       for (int k = 0; k < 2; ++k) {
-        t[k] = report.at("keyframes").at(names[k]).at("source_time_s").get<double>();
         if (!feed.empty()) {
           const auto mapped = MapFedTime(feed, t[k], options.feed_slack_s);
           if (!mapped) {
@@ -134,15 +131,9 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
       }
       e.time_a_s = t[0];
       e.time_b_s = t[1];
-      const auto& rj = report.at("relative_pose").at("rotation");
-      const auto& tj = report.at("relative_pose").at("translation");
-      Eigen::Matrix3d r;
-      Eigen::Vector3d tr;
-      for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) r(i, j) = rj.at(i).at(j).get<double>();
-        tr(i) = tj.at(i).get<double>();
-      }
-      e.mesh_vertices = report.value("counts", json::object()).value("mesh_vertices", 0);
+      const Eigen::Matrix3d& r = report.relative_pose.rotation;
+      const Eigen::Vector3d& tr = report.relative_pose.translation;
+      e.mesh_vertices = static_cast<int>(report.counts.mesh_vertices);
       const auto pose_a = gt->WorldFromCamAt(e.time_a_s);
       const auto pose_b = gt->WorldFromCamAt(e.time_b_s);
       if (!pose_a || !pose_b) throw std::runtime_error("no ground truth at the keyframe times");
@@ -161,8 +152,8 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
   }
   result.ok = true;
   result.evaluated = static_cast<int>(rot.size());
-  result.rot_err_median_deg = Median(rot);
-  result.trans_err_median_deg = Median(trans);
+  result.rot_err_median_deg = Percentile(rot, 50);
+  result.trans_err_median_deg = Percentile(trans, 50);
   result.rot_err_max_deg = rot.empty() ? 0 : *std::max_element(rot.begin(), rot.end());
   result.trans_err_max_deg = trans.empty() ? 0 : *std::max_element(trans.begin(), trans.end());
   return result;

@@ -3,7 +3,8 @@
 // 2012): every pair (i, i + step) of an image list is reconstructed with ReconstructPair and
 // compared with the ground-truth trajectory (relative rotation error, translation direction
 // error) and, where a depth map of frame i exists, with its depth (value / 5000 m) after one
-// median scale factor. Used by `monomesh eval`, the accuracy test and bench/.
+// median scale factor, and optionally the mesh (eval/mesh_checks.h). Used by `monomesh eval`,
+// the accuracy test and bench/.
 //
 // Thread-safety: EvaluateTumPairs sets OpenCV's thread count (process-wide) when asked to.
 
@@ -11,9 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "base/stats.h"
 #include "calib/camera_model.h"
-#include <functional>
-
 #include "recon/pipeline.h"
 
 namespace mm {
@@ -28,12 +28,6 @@ struct MeshFigures {
   double depth_rel_err_p90 = 0.0;
 };
 
-/// Computes MeshFigures for a pair; gt_depth_m is CV_32FC1 metres (0 = missing). Supplied by the
-/// caller (the renderer lives in a layer above recon).
-using MeshEvaluator = std::function<MeshFigures(const PairReconstruction& pair,
-                                                const Eigen::Matrix3d& K,
-                                                const cv::Mat& gt_depth_m)>;
-
 struct EvalOptions {
   std::filesystem::path list;      ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
   int step = 1;                    ///< Pairs (i, i + step).
@@ -41,7 +35,7 @@ struct EvalOptions {
   double max_depth_dt_s = 0.02;    ///< A depth map belongs to a frame within this time.
   double max_gt_dt_s = 0.1;        ///< Ground-truth extrapolation limit.
   PairOptions pair;                ///< The reconstruction's options.
-  MeshEvaluator mesh_evaluator;    ///< Optional: mesh figures where depth is known.
+  bool mesh_figures = false;       ///< Mesh figures where depth is known (EvaluatePairMesh).
   [[nodiscard]] std::string Check() const;
 };
 
@@ -68,7 +62,7 @@ struct PairEval {
   double depth_scale = 0;              ///< Median metres per reconstruction unit.
   double depth_rel_err_median = 0;     ///< Median |s z - d| / d.
   double depth_within_10pct = 0;       ///< Share of points with relative error < 0.1.
-  MeshFigures mesh;                    ///< With depth and a mesh evaluator.
+  MeshFigures mesh;                    ///< With depth and options.mesh_figures.
 };
 
 struct EvalSummary {
@@ -92,9 +86,6 @@ struct EvalResult {
   std::vector<PairEval> pairs;
   EvalSummary summary;
 };
-
-/// Percentile with linear interpolation between order statistics (numpy's default).
-double Percentile(std::vector<double> values, double percent);
 
 /// Runs the evaluation; dataset errors are reported in the result (ok = false).
 EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetCamera& camera,

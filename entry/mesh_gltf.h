@@ -29,6 +29,6 @@ std::string EncodeGlb(const Mesh& mesh, const std::string& texture_jpeg, const G
 /// Reads a GLB written by EncodeGlb (or any GLB with one triangle primitive using POSITION,
 /// TEXCOORD_0 and indices) back into camera-A coordinates. `texture_bgr` receives the decoded
 /// base colour image (empty when there is none). Returns "" or what went wrong.
-std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr);
+[[nodiscard]] std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr);
 
 }  // namespace mm

@@ -1,4 +1,4 @@
-// `monomesh gpio-test --chip C --line L`: prints button events, for wiring checks.
+// `monomesh gpio-watch --chip C --line L`: prints button events, for wiring checks.
 
 #include <poll.h>
 
@@ -14,10 +14,10 @@ namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
 
-int RunGpioTest(const GpioButtonOptions& options, int count, double seconds) {
+int RunGpioWatch(const GpioButtonOptions& options, int count, double seconds) {
   GpioButton button(options);
   if (std::string e = button.Open(); !e.empty()) {
-    std::cerr << "monomesh gpio-test: " << e << "\n";
+    std::cerr << "monomesh gpio-watch: " << e << "\n";
     return 1;
   }
   std::signal(SIGINT, [](int) { g_stop = 1; });
@@ -34,7 +34,7 @@ int RunGpioTest(const GpioButtonOptions& options, int count, double seconds) {
     std::string error;
     const int r = button.ReadEvent(&ev, &error);
     if (r < 0) {
-      std::cerr << "monomesh gpio-test: " << error << "\n";
+      std::cerr << "monomesh gpio-watch: " << error << "\n";
       return 1;
     }
     if (r == 0) continue;
@@ -51,8 +51,8 @@ int RunGpioTest(const GpioButtonOptions& options, int count, double seconds) {
 
 }  // namespace
 
-Runner AddGpioTestCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand("gpio-test", "Print button events of a GPIO line");
+Runner AddGpioWatchCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand("gpio-watch", "Print button events of a GPIO line");
   auto options = std::make_shared<GpioButtonOptions>();
   auto count = std::make_shared<int>(0);
   auto seconds = std::make_shared<double>(0);
@@ -68,7 +68,7 @@ Runner AddGpioTestCommand(CLI::App& app) {
   return [=]() -> int {
     if (!cmd->parsed()) return -1;
     options->active_low = !*active_high;
-    return RunGpioTest(*options, *count, *seconds);
+    return RunGpioWatch(*options, *count, *seconds);
   };
 }
 

@@ -1,4 +1,4 @@
-#include "recon/mesh_gltf.h"
+#include "entry/mesh_gltf.h"
 
 #include <tiny_gltf.h>
 
@@ -27,8 +27,8 @@ int AddView(tinygltf::Model* model, const void* data, size_t size, int target) {
 }
 
 // Pointer to accessor element 0 and its stride, after checking it lies within its buffer.
-const unsigned char* AccessorData(const tinygltf::Model& model, int index, int type,
-                                  int component, size_t* stride, size_t* count) {
+const unsigned char* AccessorData(const tinygltf::Model& model, int index, int type, int component,
+                                  size_t* stride, size_t* count) {
   if (index < 0 || index >= static_cast<int>(model.accessors.size())) return nullptr;
   const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(index)];
   if (a.type != type || a.componentType != component || a.bufferView < 0 ||
@@ -38,10 +38,9 @@ const unsigned char* AccessorData(const tinygltf::Model& model, int index, int t
   const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
   if (v.buffer < 0 || v.buffer >= static_cast<int>(model.buffers.size())) return nullptr;
   const std::vector<unsigned char>& buf = model.buffers[static_cast<size_t>(v.buffer)].data;
-  const size_t elem = static_cast<size_t>(tinygltf::GetComponentSizeInBytes(
-                          static_cast<uint32_t>(component))) *
-                      static_cast<size_t>(tinygltf::GetNumComponentsInType(
-                          static_cast<uint32_t>(type)));
+  const size_t elem =
+      static_cast<size_t>(tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(component))) *
+      static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type)));
   *stride = v.byteStride != 0 ? v.byteStride : elem;
   *count = a.count;
   const size_t begin = v.byteOffset + a.byteOffset;
@@ -181,10 +180,9 @@ std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr
   *texture_bgr = cv::Mat();
   tinygltf::TinyGLTF loader;
   // Images are decoded below with OpenCV, not by tinygltf.
-  loader.SetImageLoader(
-      [](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*,
-         int, void*) { return true; },
-      nullptr);
+  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                           const unsigned char*, int, void*) { return true; },
+                        nullptr);
   tinygltf::Model model;
   std::string err, warn;
   if (!loader.LoadBinaryFromMemory(&model, &err, &warn,

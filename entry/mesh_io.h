@@ -42,8 +42,8 @@ struct ColmapInput {
   std::string image_a_name = "keyframe_a.jpg";
   std::string image_b_name = "keyframe_b.jpg";
   std::span<const Eigen::Vector3d> points_in_cam_a;
-  std::span<const Eigen::Vector2d> pixels_a;  ///< Per point.
-  std::span<const Eigen::Vector2d> pixels_b;  ///< Per point.
+  std::span<const Eigen::Vector2d> pixels_a;                 ///< Per point.
+  std::span<const Eigen::Vector2d> pixels_b;                 ///< Per point.
   std::span<const Eigen::Matrix<uint8_t, 3, 1>> colors_rgb;  ///< Per point, or empty.
 };
 

@@ -13,7 +13,7 @@
 #include "dataset/tum.h"
 #include "recon/mesh.h"
 #include "recon/pipeline.h"
-#include "render/mesh_eval.h"
+#include "eval/mesh_checks.h"
 #include "render/renderer.h"
 
 namespace mm {

@@ -1,4 +1,4 @@
-#include "recon/mesh_io.h"
+#include "entry/mesh_io.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -105,8 +105,7 @@ std::string EncodePointsPly(std::span<const Eigen::Vector3d> points,
 
 ColmapText EncodeColmapText(const ColmapInput& in) {
   ColmapText out;
-  const size_t n =
-      std::min({in.points_in_cam_a.size(), in.pixels_a.size(), in.pixels_b.size()});
+  const size_t n = std::min({in.points_in_cam_a.size(), in.pixels_a.size(), in.pixels_b.size()});
   const bool has_colors = in.colors_rgb.size() >= n;
   {
     std::ostringstream c;
@@ -134,8 +133,8 @@ ColmapText EncodeColmapText(const ColmapInput& in) {
       im << (i ? " " : "") << in.pixels_a[i].x() + 0.5 << " " << in.pixels_a[i].y() + 0.5 << " "
          << i + 1;
     }
-    im << "\n2 " << qb.w() << " " << qb.x() << " " << qb.y() << " " << qb.z() << " " << t.x()
-       << " " << t.y() << " " << t.z() << " 1 " << in.image_b_name << "\n";
+    im << "\n2 " << qb.w() << " " << qb.x() << " " << qb.y() << " " << qb.z() << " " << t.x() << " "
+       << t.y() << " " << t.z() << " 1 " << in.image_b_name << "\n";
     for (size_t i = 0; i < n; ++i) {
       im << (i ? " " : "") << in.pixels_b[i].x() + 0.5 << " " << in.pixels_b[i].y() + 0.5 << " "
          << i + 1;
@@ -175,7 +174,7 @@ std::vector<Eigen::Matrix<uint8_t, 3, 1>> SampleColors(const cv::Mat& image_bgr,
     const int u = std::clamp(static_cast<int>(std::lround(px.x())), 0, image_bgr.cols - 1);
     const int v = std::clamp(static_cast<int>(std::lround(px.y())), 0, image_bgr.rows - 1);
     if (image_bgr.type() == CV_8UC3) {
-      const cv::Vec3b bgr = image_bgr.at<cv::Vec3b>(v, u);
+      const cv::Vec3b& bgr = image_bgr.at<cv::Vec3b>(v, u);
       out.emplace_back(bgr[2], bgr[1], bgr[0]);
     } else {
       const uint8_t g = image_bgr.at<uint8_t>(v, u);

@@ -1,4 +1,4 @@
-#include "session/capture_eval.h"
+#include "eval/capture_eval.h"
 
 #include <chrono>
 #include <cstdio>

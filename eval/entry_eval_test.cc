@@ -1,7 +1,7 @@
 // Spool entries against ground truth: exact poses give zero error, a known perturbation its
 // angle, device timestamps map through the feed log, and unmappable keyframes are reported.
 
-#include "app/entry_eval.h"
+#include "eval/entry_eval.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,13 +10,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
-#include <nlohmann/json.hpp>
+
+#include "entry/report.h"
 
 namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
 
 EntryEvalOptions Options(const fs::path& spool, const fs::path& dataset, const fs::path& feed_log = {}) {
   EntryEvalOptions o;
@@ -44,18 +44,20 @@ class EntryEvalTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
 
   // An entry whose estimate is the true relative pose, rotated by `extra_deg` about x.
-  void WriteEntry(const std::string& name, double time_a, double time_b, double extra_deg) {
+  void WriteReport(const std::string& name, double time_a, double time_b, double extra_deg) {
     const Eigen::Isometry3d b_from_a = world_from_b_.inverse();  // world_from_a = identity.
     const Eigen::Matrix3d r =
         Eigen::AngleAxisd(extra_deg * M_PI / 180, Eigen::Vector3d::UnitX()) * b_from_a.linear();
     const Eigen::Vector3d t = b_from_a.translation() * 3.0;  // Scale is unobservable.
-    json report = {{"success", true},
-                   {"keyframes", {{"a", {{"source_time_s", time_a}}}, {"b", {{"source_time_s", time_b}}}}},
-                   {"relative_pose", {{"rotation", json::array()}, {"translation", {t.x(), t.y(), t.z()}}}},
-                   {"counts", {{"mesh_vertices", 321}}}};
-    for (int i = 0; i < 3; ++i) report["relative_pose"]["rotation"].push_back({r(i, 0), r(i, 1), r(i, 2)});
+    EntryReport report;
+    report.success = true;
+    report.keyframe_a.source_time_s = time_a;
+    report.keyframe_b.source_time_s = time_b;
+    report.relative_pose.rotation = r;
+    report.relative_pose.translation = t;
+    report.counts.mesh_vertices = 321;
     fs::create_directories(dir_ / "spool" / name);
-    std::ofstream(dir_ / "spool" / name / "report.json") << report.dump();
+    std::ofstream(dir_ / "spool" / name / "report.json") << FormatEntryReport(report);
   }
 
   fs::path dir_;
@@ -63,8 +65,8 @@ class EntryEvalTest : public ::testing::Test {
 };
 
 TEST_F(EntryEvalTest, DatasetTimesGiveExactAndPerturbedErrors) {
-  WriteEntry("e1", 100, 101, 0.0);
-  WriteEntry("e2", 100, 101, 1.5);
+  WriteReport("e1", 100, 101, 0.0);
+  WriteReport("e2", 100, 101, 1.5);
   fs::create_directories(dir_ / "spool" / ".tmp-e3");  // An unfinished entry is not one.
   const EntryEvalResult r = EvaluateSpoolEntries(Options(dir_ / "spool", dir_));
   ASSERT_TRUE(r.ok) << r.failure_reason;
@@ -83,8 +85,8 @@ TEST_F(EntryEvalTest, DeviceTimestampsMapThroughTheFeedLog) {
   std::ofstream(dir_ / "feed.log") << "# write_start_s write_end_s dataset_time_s\n"
                                    << "5.000 5.004 99.966\n5.033 5.037 100\n5.066 5.070 100.033\n"
                                    << "6.033 6.040 101\n";
-  WriteEntry("e1", 5.0368, 6.0330, 0.0);  // Inside the write intervals of 100 and 101.
-  WriteEntry("e2", 5.0500, 6.0330, 0.0);  // Keyframe A 13 ms after any write ended.
+  WriteReport("e1", 5.0368, 6.0330, 0.0);  // Inside the write intervals of 100 and 101.
+  WriteReport("e2", 5.0500, 6.0330, 0.0);  // Keyframe A 13 ms after any write ended.
   const EntryEvalResult r = EvaluateSpoolEntries(Options(dir_ / "spool", dir_, dir_ / "feed.log"));
   ASSERT_TRUE(r.ok) << r.failure_reason;
   ASSERT_EQ(r.entries.size(), 2u);

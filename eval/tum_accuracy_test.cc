@@ -7,7 +7,7 @@
 #include <tuple>
 
 #include "calib/calib_io.h"
-#include "recon/evaluation.h"
+#include "eval/tum_pairs.h"
 #include "tests/support/shared_data.h"
 
 namespace mm {

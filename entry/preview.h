@@ -1,0 +1,24 @@
+#pragma once
+// preview.png of a spool entry: the mesh rendered from camera A beside an oblique view.
+//
+// Thread-safety: uses the given Renderer from the calling thread (see Renderer).
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "recon/mesh.h"
+#include "render/renderer.h"
+
+namespace mm {
+
+/// The operator's preview: the mesh from camera A (identity pose, K) beside an oblique view
+/// from above and behind A, looking at the mesh's median point. BGR8, 2 width x height.
+/// Returns an empty image and sets *error on failure.
+cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& texture_bgr,
+                      const Eigen::Matrix3d& K, int width, int height, std::string* error);
+
+/// The oblique camera used by RenderPreview (exposed for tests).
+RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height);
+
+}  // namespace mm

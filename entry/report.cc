@@ -1,0 +1,346 @@
+#include "entry/report.h"
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+namespace mm {
+namespace {
+
+using json = nlohmann::json;
+
+json KeyframeJson(const KeyframeInfo& k) {
+  return {{"sequence", k.sequence},
+          {"source_time_s", k.source_time_s},
+          {"capture_time_ns", k.capture_time_ns},
+          {"source", k.source}};
+}
+
+// Sets *out from j[key] when the key is there (nlohmann throws on a type mismatch).
+template <typename T>
+void Read(const json& j, const char* key, T* out) {
+  if (const auto it = j.find(key); it != j.end()) it->get_to(*out);
+}
+
+// The object j[key], or an empty object when absent.
+const json& Object(const json& j, const char* key) {
+  static const json empty = json::object();
+  const auto it = j.find(key);
+  return it == j.end() ? empty : *it;
+}
+
+template <typename Derived>
+void ReadVector(const json& j, const char* key, Eigen::MatrixBase<Derived>* out) {
+  const auto it = j.find(key);
+  if (it == j.end()) return;
+  for (Eigen::Index i = 0; i < out->size(); ++i) (*out)(i) = it->at(i).template get<double>();
+}
+
+void ReadKeyframe(const json& j, KeyframeInfo* k) {
+  Read(j, "sequence", &k->sequence);
+  Read(j, "source_time_s", &k->source_time_s);
+  Read(j, "capture_time_ns", &k->capture_time_ns);
+  Read(j, "source", &k->source);
+}
+
+}  // namespace
+
+EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
+                            const KeyframeInfo& b, const BouguetCamera& camera,
+                            const PairOptions& options, bool features_a_precomputed,
+                            std::span<const KeyframeBTry> tries) {
+  const TwoViewResult& g = r.geometry;
+  EntryReport report;
+  report.monomesh_version = MM_VERSION;
+  report.success = r.success;
+  report.failure_reason = r.failure_reason;
+  report.pair_classification = {.kind = PairKindName(g.classification.kind),
+                                .explanation = g.classification.explanation,
+                                .f_inliers = g.classification.f_inliers,
+                                .h_inliers = g.classification.h_inliers,
+                                .median_flow_px = g.classification.median_flow_px};
+  report.ransac_f = {.iterations = g.ransac_f.iterations,
+                     .required_iterations = g.ransac_f.required_iterations,
+                     .inliers = g.ransac_f.inliers.size(),
+                     .inlier_rms_px = g.ransac_f.inlier_rms_px};
+  report.bundle_adjustment = {.ran = g.bundle.ran,
+                              .converged = g.bundle.converged,
+                              .iterations = g.bundle.iterations,
+                              .adjusted_points = g.bundle.num_points,
+                              .initial_rms_px = g.bundle.initial_rms_px,
+                              .final_rms_px = g.bundle.final_rms_px,
+                              .message = g.bundle.message};
+  report.keyframe_a_features_precomputed = features_a_precomputed;
+  for (const KeyframeBTry& t : tries) {
+    const bool is_this = &t == &tries.back();
+    report.keyframe_b_tries.push_back(
+        {.frame = t.frame_sequence,
+         .seconds_after_a = t.seconds_after_a,
+         .gate_parallax_deg = t.gate_parallax_deg,
+         .tracks = t.tracks,
+         .accepted = is_this ? r.success : t.accepted,
+         .failure = TwoViewFailureName(is_this ? g.failure : t.failure),
+         .reason = is_this ? r.failure_reason : t.reason});
+  }
+  report.keyframe_a = a;
+  report.keyframe_b = b;
+  report.camera = {.width = camera.width,
+                   .height = camera.height,
+                   .fc = camera.fc,
+                   .cc = camera.cc,
+                   .alpha_c = camera.alpha_c,
+                   .kc = camera.kc};
+  const Eigen::Quaterniond q(g.rotation);
+  report.relative_pose.rotation = g.rotation;
+  report.relative_pose.quaternion_wxyz = {q.w(), q.x(), q.y(), q.z()};
+  report.relative_pose.translation = g.translation;
+  report.counts = {.features_a = r.features_a,
+                   .features_b = r.features_b,
+                   .matches = r.matches,
+                   .gate_tracks = r.tracks,
+                   .gate_tracks_used = r.tracks_used,
+                   .gate_track_inliers = r.track_inliers,
+                   .inliers = g.num_inliers,
+                   .points = g.points_in_cam_a.size(),
+                   .mesh_vertices = r.mesh.vertices.size(),
+                   .mesh_triangles = r.mesh.triangles.size(),
+                   .mesh_dropped_depth_discontinuity = r.mesh_summary.dropped_depth_discontinuity,
+                   .mesh_dropped_grazing_angle = r.mesh_summary.dropped_grazing_angle};
+  report.meshing = {.voxel_size = r.mesh_summary.voxel_size,
+                    .occupied_cells = r.mesh_summary.occupied_cells,
+                    .kept_cells = r.mesh_summary.kept_cells,
+                    .delaunay_triangles = r.mesh_summary.delaunay_triangles,
+                    .max_depth_ratio = options.mesh.max_depth_ratio,
+                    .max_grazing_angle_deg = options.mesh.max_grazing_angle_deg,
+                    .min_points_per_cell = options.mesh.min_points_per_cell,
+                    .voxel_vertex = options.mesh.voxel_vertex == VoxelVertex::kCentroid
+                                        ? "centroid"
+                                        : "cell_centre"};
+  report.quality = {.median_triangulation_angle_deg = g.median_triangulation_angle_deg,
+                    .reprojection_rms_px = g.reprojection_rms_px};
+  report.timings_s.features_a = r.times.features_a_s;
+  report.timings_s.features_b = r.times.features_b_s;
+  report.timings_s.matching = r.times.matching_s;
+  report.timings_s.geometry = r.times.geometry_s;
+  report.timings_s.meshing = r.times.meshing_s;
+  report.timings_s.total_recon = r.times.total_s();
+  return report;
+}
+
+json ToJson(const EntryReport& r) {
+  json report;
+  report["schema_version"] = r.schema_version;
+  report["monomesh_version"] = r.monomesh_version;
+  report["success"] = r.success;
+  report["failure_reason"] = r.failure_reason;
+  const auto& c = r.pair_classification;
+  report["pair_classification"] = {{"kind", c.kind},
+                                   {"explanation", c.explanation},
+                                   {"f_inliers", c.f_inliers},
+                                   {"h_inliers", c.h_inliers},
+                                   {"median_flow_px", c.median_flow_px}};
+  report["ransac_f"] = {{"iterations", r.ransac_f.iterations},
+                        {"required_iterations", r.ransac_f.required_iterations},
+                        {"inliers", r.ransac_f.inliers},
+                        {"inlier_rms_px", r.ransac_f.inlier_rms_px}};
+  const auto& ba = r.bundle_adjustment;
+  report["bundle_adjustment"] = {{"ran", ba.ran},
+                                 {"converged", ba.converged},
+                                 {"iterations", ba.iterations},
+                                 {"adjusted_points", ba.adjusted_points},
+                                 {"initial_rms_px", ba.initial_rms_px},
+                                 {"final_rms_px", ba.final_rms_px},
+                                 {"message", ba.message}};
+  report["keyframe_a_features_precomputed"] = r.keyframe_a_features_precomputed;
+  if (!r.keyframe_b_tries.empty()) {
+    json tries = json::array();
+    for (const EntryReport::BTry& t : r.keyframe_b_tries) {
+      tries.push_back({{"frame", t.frame},
+                       {"seconds_after_a", t.seconds_after_a},
+                       {"gate_parallax_deg", t.gate_parallax_deg},
+                       {"tracks", t.tracks},
+                       {"accepted", t.accepted},
+                       {"failure", t.failure},
+                       {"reason", t.reason}});
+    }
+    report["keyframe_b_tries"] = tries;
+  }
+  report["keyframes"] = {{"a", KeyframeJson(r.keyframe_a)}, {"b", KeyframeJson(r.keyframe_b)}};
+  const auto& cam = r.camera;
+  report["camera"] = {{"image_size", {cam.width, cam.height}},
+                      {"fc", {cam.fc.x(), cam.fc.y()}},
+                      {"cc", {cam.cc.x(), cam.cc.y()}},
+                      {"alpha_c", cam.alpha_c},
+                      {"kc", cam.kc}};
+  const Eigen::Matrix3d& rot = r.relative_pose.rotation;
+  const Eigen::Vector4d& q = r.relative_pose.quaternion_wxyz;
+  const Eigen::Vector3d& t = r.relative_pose.translation;
+  report["relative_pose"] = {{"convention", r.relative_pose.convention},
+                             {"rotation",
+                              {{rot(0, 0), rot(0, 1), rot(0, 2)},
+                               {rot(1, 0), rot(1, 1), rot(1, 2)},
+                               {rot(2, 0), rot(2, 1), rot(2, 2)}}},
+                             {"quaternion_wxyz", {q(0), q(1), q(2), q(3)}},
+                             {"translation", {t.x(), t.y(), t.z()}}};
+  report["scale"] = r.scale;
+  const auto& n = r.counts;
+  report["counts"] = {{"features_a", n.features_a},
+                      {"features_b", n.features_b},
+                      {"matches", n.matches},
+                      {"gate_tracks", n.gate_tracks},
+                      {"gate_tracks_used", n.gate_tracks_used},
+                      {"gate_track_inliers", n.gate_track_inliers},
+                      {"inliers", n.inliers},
+                      {"points", n.points},
+                      {"mesh_vertices", n.mesh_vertices},
+                      {"mesh_triangles", n.mesh_triangles},
+                      {"mesh_dropped_depth_discontinuity", n.mesh_dropped_depth_discontinuity},
+                      {"mesh_dropped_grazing_angle", n.mesh_dropped_grazing_angle}};
+  const auto& m = r.meshing;
+  report["meshing"] = {{"voxel_size", m.voxel_size},
+                       {"occupied_cells", m.occupied_cells},
+                       {"kept_cells", m.kept_cells},
+                       {"delaunay_triangles", m.delaunay_triangles},
+                       {"max_depth_ratio", m.max_depth_ratio},
+                       {"max_grazing_angle_deg", m.max_grazing_angle_deg},
+                       {"min_points_per_cell", m.min_points_per_cell},
+                       {"voxel_vertex", m.voxel_vertex}};
+  report["quality"] = {{"median_triangulation_angle_deg", r.quality.median_triangulation_angle_deg},
+                       {"reprojection_rms_px", r.quality.reprojection_rms_px}};
+  const auto& ts = r.timings_s;
+  report["timings_s"] = {{"features_a", ts.features_a}, {"features_b", ts.features_b},
+                         {"matching", ts.matching},     {"geometry", ts.geometry},
+                         {"meshing", ts.meshing},       {"total_recon", ts.total_recon}};
+  if (ts.preview) report["timings_s"]["preview"] = *ts.preview;
+  if (ts.encode) report["timings_s"]["encode"] = *ts.encode;
+  if (r.preview) {
+    if (r.preview->error.empty()) {
+      report["preview"] = {{"file", r.preview->file}, {"renderer", r.preview->renderer}};
+    } else {
+      report["preview"] = {{"error", r.preview->error}};
+    }
+  }
+  return report;
+}
+
+std::string FromJson(const json& j, EntryReport* out) {
+  EntryReport r;
+  try {
+    if (!j.is_object()) return "a report is a JSON object";
+    r.schema_version = 1;  // Written before the field existed.
+    Read(j, "schema_version", &r.schema_version);
+    if (r.schema_version > kEntryReportSchemaVersion) {
+      return "report schema " + std::to_string(r.schema_version) + " is newer than " +
+             std::to_string(kEntryReportSchemaVersion);
+    }
+    Read(j, "monomesh_version", &r.monomesh_version);
+    Read(j, "success", &r.success);
+    Read(j, "failure_reason", &r.failure_reason);
+    const json& c = Object(j, "pair_classification");
+    Read(c, "kind", &r.pair_classification.kind);
+    Read(c, "explanation", &r.pair_classification.explanation);
+    Read(c, "f_inliers", &r.pair_classification.f_inliers);
+    Read(c, "h_inliers", &r.pair_classification.h_inliers);
+    Read(c, "median_flow_px", &r.pair_classification.median_flow_px);
+    const json& f = Object(j, "ransac_f");
+    Read(f, "iterations", &r.ransac_f.iterations);
+    Read(f, "required_iterations", &r.ransac_f.required_iterations);
+    Read(f, "inliers", &r.ransac_f.inliers);
+    Read(f, "inlier_rms_px", &r.ransac_f.inlier_rms_px);
+    const json& ba = Object(j, "bundle_adjustment");
+    Read(ba, "ran", &r.bundle_adjustment.ran);
+    Read(ba, "converged", &r.bundle_adjustment.converged);
+    Read(ba, "iterations", &r.bundle_adjustment.iterations);
+    Read(ba, "adjusted_points", &r.bundle_adjustment.adjusted_points);
+    Read(ba, "initial_rms_px", &r.bundle_adjustment.initial_rms_px);
+    Read(ba, "final_rms_px", &r.bundle_adjustment.final_rms_px);
+    Read(ba, "message", &r.bundle_adjustment.message);
+    Read(j, "keyframe_a_features_precomputed", &r.keyframe_a_features_precomputed);
+    if (const auto it = j.find("keyframe_b_tries"); it != j.end()) {
+      for (const json& t : *it) {
+        EntryReport::BTry b;
+        Read(t, "frame", &b.frame);
+        Read(t, "seconds_after_a", &b.seconds_after_a);
+        Read(t, "gate_parallax_deg", &b.gate_parallax_deg);
+        Read(t, "tracks", &b.tracks);
+        Read(t, "accepted", &b.accepted);
+        Read(t, "failure", &b.failure);
+        Read(t, "reason", &b.reason);
+        r.keyframe_b_tries.push_back(std::move(b));
+      }
+    }
+    const json& k = Object(j, "keyframes");
+    ReadKeyframe(Object(k, "a"), &r.keyframe_a);
+    ReadKeyframe(Object(k, "b"), &r.keyframe_b);
+    const json& cam = Object(j, "camera");
+    if (const auto it = cam.find("image_size"); it != cam.end()) {
+      r.camera.width = it->at(0).get<int>();
+      r.camera.height = it->at(1).get<int>();
+    }
+    ReadVector(cam, "fc", &r.camera.fc);
+    ReadVector(cam, "cc", &r.camera.cc);
+    Read(cam, "alpha_c", &r.camera.alpha_c);
+    Read(cam, "kc", &r.camera.kc);
+    const json& pose = Object(j, "relative_pose");
+    Read(pose, "convention", &r.relative_pose.convention);
+    if (const auto it = pose.find("rotation"); it != pose.end()) {
+      for (int row = 0; row < 3; ++row) {
+        for (int col = 0; col < 3; ++col) {
+          r.relative_pose.rotation(row, col) = it->at(row).at(col).get<double>();
+        }
+      }
+    }
+    ReadVector(pose, "quaternion_wxyz", &r.relative_pose.quaternion_wxyz);
+    ReadVector(pose, "translation", &r.relative_pose.translation);
+    Read(j, "scale", &r.scale);
+    const json& n = Object(j, "counts");
+    Read(n, "features_a", &r.counts.features_a);
+    Read(n, "features_b", &r.counts.features_b);
+    Read(n, "matches", &r.counts.matches);
+    Read(n, "gate_tracks", &r.counts.gate_tracks);
+    Read(n, "gate_tracks_used", &r.counts.gate_tracks_used);
+    Read(n, "gate_track_inliers", &r.counts.gate_track_inliers);
+    Read(n, "inliers", &r.counts.inliers);
+    Read(n, "points", &r.counts.points);
+    Read(n, "mesh_vertices", &r.counts.mesh_vertices);
+    Read(n, "mesh_triangles", &r.counts.mesh_triangles);
+    Read(n, "mesh_dropped_depth_discontinuity", &r.counts.mesh_dropped_depth_discontinuity);
+    Read(n, "mesh_dropped_grazing_angle", &r.counts.mesh_dropped_grazing_angle);
+    const json& m = Object(j, "meshing");
+    Read(m, "voxel_size", &r.meshing.voxel_size);
+    Read(m, "occupied_cells", &r.meshing.occupied_cells);
+    Read(m, "kept_cells", &r.meshing.kept_cells);
+    Read(m, "delaunay_triangles", &r.meshing.delaunay_triangles);
+    Read(m, "max_depth_ratio", &r.meshing.max_depth_ratio);
+    Read(m, "max_grazing_angle_deg", &r.meshing.max_grazing_angle_deg);
+    Read(m, "min_points_per_cell", &r.meshing.min_points_per_cell);
+    Read(m, "voxel_vertex", &r.meshing.voxel_vertex);
+    const json& qj = Object(j, "quality");
+    Read(qj, "median_triangulation_angle_deg", &r.quality.median_triangulation_angle_deg);
+    Read(qj, "reprojection_rms_px", &r.quality.reprojection_rms_px);
+    const json& ts = Object(j, "timings_s");
+    Read(ts, "features_a", &r.timings_s.features_a);
+    Read(ts, "features_b", &r.timings_s.features_b);
+    Read(ts, "matching", &r.timings_s.matching);
+    Read(ts, "geometry", &r.timings_s.geometry);
+    Read(ts, "meshing", &r.timings_s.meshing);
+    Read(ts, "total_recon", &r.timings_s.total_recon);
+    if (ts.contains("preview")) r.timings_s.preview = ts.at("preview").get<double>();
+    if (ts.contains("encode")) r.timings_s.encode = ts.at("encode").get<double>();
+    if (j.contains("preview")) {
+      const json& p = j.at("preview");
+      EntryReport::Preview preview;
+      Read(p, "file", &preview.file);
+      Read(p, "renderer", &preview.renderer);
+      Read(p, "error", &preview.error);
+      r.preview = preview;
+    }
+  } catch (const json::exception& e) {
+    return e.what();
+  }
+  *out = std::move(r);
+  return {};
+}
+
+std::string FormatEntryReport(const EntryReport& report) { return ToJson(report).dump(2) + "\n"; }
+
+}  // namespace mm

@@ -1,0 +1,176 @@
+#pragma once
+// report.json of a spool entry as a type: what one pair job found (keyframes, relative pose
+// cam_b_from_cam_a, counts, quality, timings). MakeEntryReport fills it from the
+// reconstruction; ToJson writes report.json and FromJson reads it back, so readers (eval, the
+// tests, the web view) never spell the keys.
+//
+// Schema: `schema_version` (kEntryReportSchemaVersion) names the layout; a report without it
+// was written before the field existed and has layout 1. FromJson refuses a newer version.
+// Keys are sorted (nlohmann::json objects); numbers keep their type (counts are integers,
+// figures doubles).
+//
+// Thread-safety: plain data and pure functions; reentrant.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "calib/camera_model.h"
+#include "recon/pipeline.h"
+#include "session/capture_session.h"
+
+namespace mm {
+
+inline constexpr int kEntryReportSchemaVersion = 1;
+
+/// Where a keyframe came from, for the report.
+struct KeyframeInfo {
+  uint64_t sequence = 0;
+  double source_time_s = 0.0;
+  int64_t capture_time_ns = 0;
+  std::string source;
+};
+
+struct EntryReport {
+  int schema_version = kEntryReportSchemaVersion;
+  std::string monomesh_version;
+  bool success = false;
+  std::string failure_reason;
+
+  struct PairClassification {
+    std::string kind;
+    std::string explanation;
+    int f_inliers = 0;
+    int h_inliers = 0;
+    double median_flow_px = 0.0;
+  } pair_classification;
+
+  struct Ransac {
+    int iterations = 0;
+    int required_iterations = 0;
+    uint64_t inliers = 0;
+    double inlier_rms_px = 0.0;
+  } ransac_f;
+
+  struct BundleAdjustment {
+    bool ran = false;
+    bool converged = false;
+    int iterations = 0;
+    int adjusted_points = 0;
+    double initial_rms_px = 0.0;
+    double final_rms_px = 0.0;
+    std::string message;
+  } bundle_adjustment;
+
+  bool keyframe_a_features_precomputed = false;
+  /// Every keyframe B this capture handed to the reconstruction, the last being this entry's;
+  /// the refused ones say why (empty for a pair reconstructed outside a capture).
+  struct BTry {
+    uint64_t frame = 0;
+    double seconds_after_a = 0.0;
+    double gate_parallax_deg = 0.0;
+    int tracks = 0;
+    bool accepted = false;
+    std::string failure;  ///< TwoViewFailureName.
+    std::string reason;
+  };
+  std::vector<BTry> keyframe_b_tries;
+  KeyframeInfo keyframe_a;
+  KeyframeInfo keyframe_b;
+
+  /// The camera of the undistorted frames.
+  struct Camera {
+    int width = 0;
+    int height = 0;
+    Eigen::Vector2d fc = Eigen::Vector2d::Zero();
+    Eigen::Vector2d cc = Eigen::Vector2d::Zero();
+    double alpha_c = 0.0;
+    std::array<double, 5> kc{};
+  } camera;
+
+  /// cam_b_from_cam_a: X_b = R X_a + t, |t| = 1.
+  struct RelativePose {
+    std::string convention = "cam_b_from_cam_a: X_b = R X_a + t";
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    Eigen::Vector4d quaternion_wxyz = Eigen::Vector4d(1, 0, 0, 0);
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  } relative_pose;
+
+  std::string scale =
+      "up to scale: a monocular pair fixes no metric scale; |t| = 1 (the baseline) is the unit";
+
+  struct Counts {
+    int features_a = 0;
+    int features_b = 0;
+    int matches = 0;
+    int gate_tracks = 0;          ///< The keyframe gate's tracks from A to B given.
+    int gate_tracks_used = 0;     ///< Of those, not duplicates of a SIFT match.
+    int gate_track_inliers = 0;   ///< Epipolar inliers among the tracks used.
+    int inliers = 0;
+    uint64_t points = 0;
+    uint64_t mesh_vertices = 0;
+    uint64_t mesh_triangles = 0;
+    int mesh_dropped_depth_discontinuity = 0;
+    int mesh_dropped_grazing_angle = 0;
+  } counts;
+
+  struct Meshing {
+    double voxel_size = 0.0;
+    int occupied_cells = 0;
+    int kept_cells = 0;
+    int delaunay_triangles = 0;
+    double max_depth_ratio = 0.0;
+    double max_grazing_angle_deg = 0.0;
+    int min_points_per_cell = 0;
+    std::string voxel_vertex;
+  } meshing;
+
+  struct Quality {
+    double median_triangulation_angle_deg = 0.0;
+    double reprojection_rms_px = 0.0;
+  } quality;
+
+  struct Timings {
+    double features_a = 0.0;
+    double features_b = 0.0;
+    double matching = 0.0;
+    double geometry = 0.0;
+    double meshing = 0.0;
+    double total_recon = 0.0;
+    std::optional<double> preview;  ///< Only for an entry that was encoded.
+    std::optional<double> encode;
+  } timings_s;
+
+  /// preview.png: the file and the GL renderer, or why there is none. Absent when the
+  /// reconstruction failed (nothing was encoded).
+  struct Preview {
+    std::string file;
+    std::string renderer;
+    std::string error;  ///< Non-empty: no preview.
+  };
+  std::optional<Preview> preview;
+};
+
+/// The report of a reconstructed (or failed) pair; preview and the encode timings are left for
+/// the encoder (EncodeEntry).
+/// `tries`: the capture's B tries, the last being this pair (its verdict is taken from `recon`).
+EntryReport MakeEntryReport(const PairReconstruction& recon, const KeyframeInfo& a,
+                            const KeyframeInfo& b, const BouguetCamera& camera,
+                            const PairOptions& options, bool features_a_precomputed,
+                            std::span<const KeyframeBTry> tries = {});
+
+nlohmann::json ToJson(const EntryReport& report);
+
+/// Reads a report; keys that are absent keep their defaults (a report may be partial, e.g. a
+/// failed pair's). Returns "" or what is wrong (a key of the wrong type, a newer schema).
+[[nodiscard]] std::string FromJson(const nlohmann::json& j, EntryReport* report);
+
+/// report.json's bytes: ToJson, two-space indent, a final newline.
+std::string FormatEntryReport(const EntryReport& report);
+
+}  // namespace mm

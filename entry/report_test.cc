@@ -1,0 +1,91 @@
+#include "entry/report.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+namespace mm {
+namespace {
+
+using json = nlohmann::json;
+
+EntryReport Filled() {
+  EntryReport r;
+  r.monomesh_version = "0.1.0";
+  r.success = true;
+  r.pair_classification = {.kind = "general",
+                           .explanation = "F explains the pair",
+                           .f_inliers = 300,
+                           .h_inliers = 120,
+                           .median_flow_px = 14.25};
+  r.ransac_f = {.iterations = 80, .required_iterations = 41, .inliers = 300, .inlier_rms_px = 0.4};
+  r.bundle_adjustment = {.ran = true,
+                         .converged = true,
+                         .iterations = 7,
+                         .adjusted_points = 280,
+                         .initial_rms_px = 0.5,
+                         .final_rms_px = 0.3,
+                         .message = "CONVERGENCE"};
+  r.keyframe_a = {.sequence = 3, .source_time_s = 100.25, .capture_time_ns = 17, .source = "a.png"};
+  r.keyframe_b = {.sequence = 9, .source_time_s = 101.5, .capture_time_ns = 42, .source = "b.png"};
+  r.camera = {.width = 640,
+              .height = 480,
+              .fc = {535.4, 539.2},
+              .cc = {320.1, 247.6},
+              .alpha_c = 0.0,
+              .kc = {0.1, -0.2, 0, 0, 0.01}};
+  r.relative_pose.rotation << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  r.relative_pose.quaternion_wxyz = {0.5, 0.5, 0.5, 0.5};
+  r.relative_pose.translation = {0.6, 0, 0.8};
+  r.counts.points = 280;
+  r.counts.mesh_vertices = 250;
+  r.meshing.voxel_vertex = "cell_centre";
+  r.timings_s.total_recon = 0.25;
+  r.timings_s.preview = 0.05;
+  r.timings_s.encode = 0.02;
+  r.preview = EntryReport::Preview{.file = "preview.png", .renderer = "llvmpipe", .error = {}};
+  return r;
+}
+
+TEST(EntryReport, RoundTripsThroughJson) {
+  const json j = ToJson(Filled());
+  EntryReport back;
+  ASSERT_EQ(FromJson(j, &back), "");
+  EXPECT_EQ(ToJson(back), j);
+  EXPECT_EQ(back.keyframe_b.source, "b.png");
+  EXPECT_EQ(back.relative_pose.rotation(0, 1), -1.0);
+  EXPECT_EQ(back.counts.mesh_vertices, 250u);
+  ASSERT_TRUE(back.preview.has_value());
+  EXPECT_EQ(back.preview->renderer, "llvmpipe");
+  EXPECT_EQ(j["schema_version"], kEntryReportSchemaVersion);
+  EXPECT_EQ(j["keyframes"]["a"]["source_time_s"], 100.25);
+  EXPECT_EQ(j["camera"]["image_size"], json::array({640, 480}));
+}
+
+TEST(EntryReport, FailedPairHasNoPreviewOrEncodeTimings) {
+  EntryReport r;
+  r.failure_reason = "not enough matches";
+  const json j = ToJson(r);
+  EXPECT_FALSE(j.contains("preview"));
+  EXPECT_FALSE(j["timings_s"].contains("encode"));
+  EntryReport back;
+  ASSERT_EQ(FromJson(j, &back), "");
+  EXPECT_FALSE(back.success);
+  EXPECT_EQ(back.failure_reason, "not enough matches");
+  EXPECT_FALSE(back.preview.has_value());
+}
+
+TEST(EntryReport, ReadsAPartialReportAndRejectsBadOnes) {
+  EntryReport r;
+  ASSERT_EQ(FromJson(json{{"success", true}, {"counts", {{"mesh_vertices", 5}}}}, &r), "");
+  EXPECT_TRUE(r.success);
+  EXPECT_EQ(r.counts.mesh_vertices, 5u);
+  EXPECT_EQ(r.schema_version, 1);  // Before the field existed.
+  EXPECT_NE(FromJson(json{{"success", "yes"}}, &r), "");
+  EXPECT_NE(FromJson(json{{"schema_version", kEntryReportSchemaVersion + 1}}, &r).find("newer"),
+            std::string::npos);
+  EXPECT_NE(FromJson(json::array(), &r), "");
+}
+
+}  // namespace
+}  // namespace mm
