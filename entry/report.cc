@@ -341,6 +341,31 @@ std::string FromJson(const json& j, EntryReport* out) {
   return {};
 }
 
+std::string BriefReport(const EntryReport& r) {
+  std::string out;
+  auto line = [&out](const std::string& key, const std::string& value) {
+    out += key + " " + value + "\n";
+  };
+  line("success", r.success ? "true" : "false");
+  if (!r.success) line("failure", r.failure_reason);
+  line("pair", r.pair_classification.kind);
+  line("features_a", std::to_string(r.counts.features_a));
+  line("features_b", std::to_string(r.counts.features_b));
+  line("matches", std::to_string(r.counts.matches));
+  line("gate_tracks_used", std::to_string(r.counts.gate_tracks_used));
+  line("inliers", std::to_string(r.counts.inliers));
+  line("gate_track_inliers", std::to_string(r.counts.gate_track_inliers));
+  line("points", std::to_string(r.counts.points));
+  line("mesh_vertices", std::to_string(r.counts.mesh_vertices));
+  line("mesh_triangles", std::to_string(r.counts.mesh_triangles));
+  line("median_triangulation_angle_deg",
+       std::to_string(r.quality.median_triangulation_angle_deg));
+  line("b_tries", std::to_string(r.keyframe_b_tries.size()));
+  line("total_recon_s", std::to_string(r.timings_s.total_recon));
+  line("scale", r.scale);
+  return out;
+}
+
 std::string FormatEntryReport(const EntryReport& report) { return ToJson(report).dump(2) + "\n"; }
 
 }  // namespace mm

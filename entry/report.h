@@ -170,6 +170,11 @@ nlohmann::json ToJson(const EntryReport& report);
 /// failed pair's). Returns "" or what is wrong (a key of the wrong type, a newer schema).
 [[nodiscard]] std::string FromJson(const nlohmann::json& j, EntryReport* report);
 
+/// A few lines for people and scripts (as Ceres' Summary::BriefReport): `key value` per line,
+/// e.g. "success true", "points 731", "mesh_vertices 603", "mesh_triangles 1060",
+/// "inliers 736", "gate_track_inliers 235", "b_tries 1", "total_recon_s 0.18", "failure ...".
+std::string BriefReport(const EntryReport& report);
+
 /// report.json's bytes: ToJson, two-space indent, a final newline.
 std::string FormatEntryReport(const EntryReport& report);
 

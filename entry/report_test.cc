@@ -39,6 +39,23 @@ EntryReport Filled() {
   r.relative_pose.translation = {0.6, 0, 0.8};
   r.counts.points = 280;
   r.counts.mesh_vertices = 250;
+  r.counts.gate_tracks = 200;
+  r.counts.gate_tracks_used = 150;
+  r.counts.gate_track_inliers = 140;
+  r.keyframe_b_tries = {{.frame = 7,
+                         .seconds_after_a = 0.2,
+                         .gate_parallax_deg = 2.1,
+                         .tracks = 210,
+                         .accepted = false,
+                         .failure = "no_parallax",
+                         .reason = "too little parallax (median triangulation angle 0.9 deg)"},
+                        {.frame = 9,
+                         .seconds_after_a = 0.4,
+                         .gate_parallax_deg = 2.8,
+                         .tracks = 200,
+                         .accepted = true,
+                         .failure = "none",
+                         .reason = ""}};
   r.meshing.voxel_vertex = "cell_centre";
   r.timings_s.total_recon = 0.25;
   r.timings_s.preview = 0.05;
@@ -60,6 +77,22 @@ TEST(EntryReport, RoundTripsThroughJson) {
   EXPECT_EQ(j["schema_version"], kEntryReportSchemaVersion);
   EXPECT_EQ(j["keyframes"]["a"]["source_time_s"], 100.25);
   EXPECT_EQ(j["camera"]["image_size"], json::array({640, 480}));
+  ASSERT_EQ(back.keyframe_b_tries.size(), 2u);
+  EXPECT_EQ(back.keyframe_b_tries[0].failure, "no_parallax");
+  EXPECT_FALSE(back.keyframe_b_tries[0].accepted);
+  EXPECT_TRUE(back.keyframe_b_tries[1].accepted);
+  EXPECT_EQ(back.counts.gate_track_inliers, 140);
+}
+
+TEST(EntryReport, BriefReportHasOneKeyValueLineEach) {
+  const std::string brief = BriefReport(Filled());
+  EXPECT_NE(brief.find("success true\n"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("points 280\n"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("mesh_vertices 250\n"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("gate_track_inliers 140\n"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("b_tries 2\n"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("scale up to scale"), std::string::npos) << brief;
+  EXPECT_EQ(brief.find("failure "), std::string::npos) << brief;
 }
 
 TEST(EntryReport, FailedPairHasNoPreviewOrEncodeTimings) {

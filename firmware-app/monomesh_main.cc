@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
       mm::cli::AddUndistortCommand(app),
       mm::cli::AddRenderCommand(app),
       mm::cli::AddSynthCommand(app),
+      mm::cli::AddReportCommand(app),
   };
   CLI11_PARSE(app, argc, argv);
   mm::SetupLogging("warn");

@@ -18,10 +18,13 @@ for f in mesh.glb mesh.obj mesh.mtl texture.jpg mesh.ply points.ply cameras.txt 
          points3D.txt keyframe_b.jpg preview.png report.json; do
   [[ -s "$entry/$f" ]] || fail "$f missing or empty"
 done
-grep -q '"scale": "up to scale' "$entry/report.json" || fail "report.json lacks the scale note"
-vertices=$(sed -n 's/.*"mesh_vertices": \([0-9]*\).*/\1/p' "$entry/report.json")
-triangles=$(sed -n 's/.*"mesh_triangles": \([0-9]*\).*/\1/p' "$entry/report.json")
-points=$(sed -n 's/.*"points": \([0-9]*\).*/\1/p' "$entry/report.json" | head -1)
+# report.json through the typed reader (monomesh report: entry/'s ReadEntryReport).
+brief=$("$MONOMESH" report "$entry") || fail "monomesh report cannot read report.json"
+field() { printf '%s\n' "$brief" | sed -n "s/^$1 //p"; }
+[[ "$(field scale)" == "up to scale"* ]] || fail "report.json lacks the scale note"
+vertices=$(field mesh_vertices)
+triangles=$(field mesh_triangles)
+points=$(field points)
 echo "report: $points points, $vertices vertices, $triangles triangles"
 
 # 1. Khronos glTF validator (npm gltf-validator, pinned by tests/gltf/package-lock.json).

@@ -39,4 +39,4 @@ echo
 echo "spool entry: $entry"
 echo "  mesh:   $entry/mesh.obj (+ mesh.mtl, texture.jpg), $entry/mesh.ply"
 echo "  report: $entry/report.json"
-grep -E '"(mesh_vertices|mesh_triangles|inliers|total_recon)"' "$entry/report.json" | sed 's/^ */    /'
+"$bin/monomesh" report "$entry" | grep -E '^(points|mesh_vertices|mesh_triangles|inliers|gate_track_inliers|b_tries|total_recon_s) ' | sed 's/^/    /'

@@ -26,6 +26,8 @@ Runner AddCalibrateCommand(CLI::App& app);
 Runner AddUndistortCommand(CLI::App& app);
 /// Adds `render`: a mesh (GLB) seen from a camera -> PNG (and depth), headless EGL.
 Runner AddRenderCommand(CLI::App& app);
+/// Adds `report`: a spool entry's report, read through entry/'s typed reader.
+Runner AddReportCommand(CLI::App& app);
 /// Adds `synth`: a synthetic corridor sequence with exact ground truth (synth/sequence.h).
 Runner AddSynthCommand(CLI::App& app);
 
