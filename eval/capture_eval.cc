@@ -42,7 +42,7 @@ std::string FailureKind(const CaptureSession& session) {
 
 std::string CaptureEvalOptions::Check() const {
   if (!(trigger_every_s > 0)) return "trigger_every_s: must be > 0";
-  if (const std::string p = session.Check(); !p.empty()) return p;
+  if (std::string p = session.Check(); !p.empty()) return p;
   return pair.Check();
 }
 

@@ -89,6 +89,7 @@ GateDecision KeyframeGate::Update(const cv::Mat& gray) {
   probe_options.max_ransac_iterations =
       std::min(probe_options.max_ransac_iterations, options_.ransac_iterations);
   probe_options.min_inliers = options_.min_inliers;
+  probe_options.f_refine_iterations = options_.f_refine_iterations;
   const TwoViewProbe probe = ProbeTwoView(pixels_a, pixels_b, K_, probe_options);
   d.essential_inliers =
       probe.ransac_f.success ? static_cast<int>(probe.ransac_f.inliers.size()) : 0;

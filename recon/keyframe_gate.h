@@ -40,6 +40,9 @@ struct KeyframeGateOptions {
   int early_b_tracks = 100;
   int min_inliers = 30;              ///< F inliers among the tracks needed to take B.
   int ransac_iterations = 200;       ///< Cap per fit (the gate runs every frame).
+  /// LM iterations of the tracks' F (the reconstruction refines its own F; the gate's
+  /// decision does not need it, and it was most of the probe's time per frame).
+  int f_refine_iterations = 0;
   int klt_window_px = 21;
   int klt_levels = 3;
   double max_klt_error = 20.0;        ///< Drop tracks whose KLT error exceeds this.

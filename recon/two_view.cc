@@ -249,6 +249,7 @@ TwoViewProbe ProbeTwoView(std::span<const Eigen::Vector2d> pixels_a,
   ransac.max_iterations = options.max_ransac_iterations;
   ransac.seed = options.seed;
   ransac.local_optimization = options.lo_ransac;
+  ransac.refine_iterations = options.f_refine_iterations;
   auto start = Clock::now();
   probe.ransac_f = RansacFundamental(pixels_a, pixels_b, ransac);
   probe.ransac_f_s = SecondsSince(start);
@@ -330,6 +331,7 @@ std::string TwoViewOptions::Check() const {
   if (!(ransac_threshold_px > 0)) return "ransac_threshold_px: must be > 0";
   if (!(ransac_confidence > 0 && ransac_confidence < 1)) return "ransac_confidence: in (0, 1)";
   if (max_ransac_iterations < 1) return "max_ransac_iterations: must be >= 1";
+  if (f_refine_iterations < 0) return "f_refine_iterations: must be >= 0";
   if (min_inliers < 8) return "min_inliers: must be >= 8";
   if (!(max_reprojection_error_px > 0)) return "max_reprojection_error_px: must be > 0";
   if (!(max_reprojection_error_after_ba_px > 0)) {

@@ -24,6 +24,7 @@ struct TwoViewOptions {
   double ransac_threshold_px = 1.0;  ///< Inlier threshold on the Sampson distance (pixels).
   double ransac_confidence = 0.9999; ///< Adaptive stop (H&Z alg. 4.5).
   int max_ransac_iterations = 10000;
+  int f_refine_iterations = 20;      ///< LM iterations of F on its RANSAC inliers (0: none).
   unsigned seed = 0;                 ///< RNG seed: runs are deterministic.
   /// LO-RANSAC for F (RansacOptions::local_optimization): a new best sample's model is
   /// refitted on its inliers before it is scored.

@@ -12,7 +12,7 @@ std::string CaptureSessionOptions::Check() const {
 }
 
 CaptureSession::CaptureSession(const Eigen::Matrix3d& K, CaptureSessionOptions options)
-    : options_(std::move(options)), gate_(K, options_.gate) {}
+    : options_(options), gate_(K, options_.gate) {}
 
 int CaptureSession::Start(const cv::Mat& gray_a, double time_s) {
   open_ = true;
