@@ -27,15 +27,13 @@ cv::Mat Gray(const cv::Mat& image) {
   return gray;
 }
 
-// The key a failure is counted under: the two-view failure's name for a refused B, else the
-// gate's ending.
+// The key a failure is counted under: the two-view failure's name for a refused B, else how
+// the capture ended.
 std::string FailureKind(const CaptureSession& session) {
-  const std::string& reason = session.failure_reason();
-  if (reason.rfind("lost track", 0) == 0) return "lost_track";
-  if (reason.rfind("not enough motion", 0) == 0) return "not_enough_motion";
-  if (reason.rfind("no accepted keyframe B", 0) == 0) return "too_many_tries";
-  if (!session.tries().empty()) return TwoViewFailureName(session.tries().back().failure);
-  return "other";
+  if (session.end() == CaptureEnd::kRefused && !session.tries().empty()) {
+    return TwoViewFailureName(session.tries().back().failure);
+  }
+  return CaptureEndName(session.end());
 }
 
 }  // namespace

@@ -35,22 +35,21 @@ void AppendTracks(std::span<const TrackCorrespondence> tracks, double duplicate_
   std::map<std::pair<int64_t, int64_t>, std::vector<Eigen::Vector2d>> grid;
   for (const Eigen::Vector2d& p : *pixels_a) grid[key(p)].push_back(p);
   const double limit_sq = duplicate_px * duplicate_px;
-  for (const TrackCorrespondence& track : tracks) {
-    const auto [cx, cy] = key(track.pixel_a);
-    bool duplicate = false;
-    for (int64_t dx = -1; dx <= 1 && !duplicate; ++dx) {
-      for (int64_t dy = -1; dy <= 1 && !duplicate; ++dy) {
+  auto near_a_match = [&](const Eigen::Vector2d& q) {
+    const auto [cx, cy] = key(q);
+    for (int64_t dx = -1; dx <= 1; ++dx) {
+      for (int64_t dy = -1; dy <= 1; ++dy) {
         const auto it = grid.find({cx + dx, cy + dy});
         if (it == grid.end()) continue;
         for (const Eigen::Vector2d& p : it->second) {
-          if ((p - track.pixel_a).squaredNorm() <= limit_sq) {
-            duplicate = true;
-            break;
-          }
+          if ((p - q).squaredNorm() <= limit_sq) return true;
         }
       }
     }
-    if (duplicate) continue;
+    return false;
+  };
+  for (const TrackCorrespondence& track : tracks) {
+    if (near_a_match(track.pixel_a)) continue;
     pixels_a->push_back(track.pixel_a);
     pixels_b->push_back(track.pixel_b);
   }

@@ -364,8 +364,8 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   result.times.ransac_f_s = probe.ransac_f_s;
   result.times.ransac_h_s = probe.ransac_h_s;
   // Only the probe's own parallax test (after the pose) is left to the test below.
-  const bool pose_found = probe.cheirality.success && !probe.norm_a.empty();
-  if (!probe.accepted && !(probe.failure == TwoViewFailure::kNoParallax && pose_found)) {
+  if (!probe.accepted &&
+      !(probe.failure == TwoViewFailure::kNoParallax && probe.cheirality.success)) {
     return Fail(result, probe.failure, probe.failure_reason);
   }
   auto start = Clock::now();
@@ -396,7 +396,7 @@ TwoViewResult EstimateTwoView(std::span<const Eigen::Vector2d> pixels_a,
   }
   result.inliers = inliers;
   result.num_inliers = static_cast<int>(inliers.size());
-  result.times.pose_s = SecondsSince(start);
+  result.times.pose_s = probe.pose_s + SecondsSince(start);  // E and cheirality, then LM.
   if (result.num_inliers < options.min_inliers) {
     return Fail(result, TwoViewFailure::kTooFewInliers,
                 "too few inliers after refinement (" + std::to_string(result.num_inliers) + ")");

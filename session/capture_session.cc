@@ -4,6 +4,26 @@
 
 namespace mm {
 
+const char* CaptureEndName(CaptureEnd end) {
+  switch (end) {
+    case CaptureEnd::kOpen:
+      return "open";
+    case CaptureEnd::kAccepted:
+      return "accepted";
+    case CaptureEnd::kRefused:
+      return "refused";
+    case CaptureEnd::kLostTrack:
+      return "lost_track";
+    case CaptureEnd::kTimeout:
+      return "not_enough_motion";
+    case CaptureEnd::kTooManyTries:
+      return "too_many_tries";
+    case CaptureEnd::kAborted:
+      return "aborted";
+  }
+  return "?";
+}
+
 std::string CaptureSessionOptions::Check() const {
   if (!(timeout_s > 0)) return "timeout_s: must be > 0";
   if (!(retry_parallax_growth >= 1)) return "retry_parallax_growth: must be >= 1";
@@ -16,6 +36,7 @@ CaptureSession::CaptureSession(const Eigen::Matrix3d& K, CaptureSessionOptions o
 
 int CaptureSession::Start(const cv::Mat& gray_a, double time_s) {
   open_ = true;
+  end_ = CaptureEnd::kOpen;
   in_flight_ = false;
   lost_ = false;
   start_time_s_ = time_s;
@@ -27,8 +48,9 @@ int CaptureSession::Start(const cv::Mat& gray_a, double time_s) {
   return corners;
 }
 
-CaptureSession::Step CaptureSession::Fail(std::string reason) {
+CaptureSession::Step CaptureSession::Fail(CaptureEnd end, std::string reason) {
   open_ = false;
+  end_ = end;
   in_flight_ = false;
   failure_reason_ = std::move(reason);
   return Step::kFailed;
@@ -58,8 +80,9 @@ CaptureSession::Step CaptureSession::OnFrame(const cv::Mat& gray, uint64_t seque
       lost_ = true;
       return Step::kWait;
     }
-    return Fail(tries_.empty() ? last_decision_.reason
-                               : last_decision_.reason + " after " + RefusalSummary());
+    return Fail(CaptureEnd::kLostTrack, tries_.empty()
+                                            ? last_decision_.reason
+                                            : last_decision_.reason + " after " + RefusalSummary());
   }
   if (in_flight_) return Step::kWait;
   if (const Step s = OnTime(time_s); s == Step::kFailed) return s;
@@ -84,12 +107,17 @@ CaptureSession::Step CaptureSession::OnResult(bool accepted, TwoViewFailure fail
   last.reason = accepted ? std::string() : reason;
   if (accepted) {
     open_ = false;
+    end_ = CaptureEnd::kAccepted;
     return Step::kDone;
   }
-  if (!MoreMotionMayCure(failure)) return Fail(reason);
-  if (lost_) return Fail("lost track after " + RefusalSummary() + " (last: " + reason + ")");
+  if (!MoreMotionMayCure(failure)) return Fail(CaptureEnd::kRefused, reason);
+  if (lost_) {
+    return Fail(CaptureEnd::kLostTrack,
+                "lost track after " + RefusalSummary() + " (last: " + reason + ")");
+  }
   if (static_cast<int>(tries_.size()) >= options_.max_tries) {
-    return Fail("no accepted keyframe B after " + RefusalSummary() + " (last: " + reason + ")");
+    return Fail(CaptureEnd::kTooManyTries,
+                "no accepted keyframe B after " + RefusalSummary() + " (last: " + reason + ")");
   }
   // More motion from the same A: the next B must see clearly more parallax than this one.
   gate_.RequireParallax(last.gate_parallax_deg * options_.retry_parallax_growth);
@@ -105,7 +133,7 @@ CaptureSession::Step CaptureSession::OnTime(double time_s) {
       std::to_string(last_decision_.median_parallax_deg) + " deg of " +
       std::to_string(gate_.required_parallax_deg()) + "; " + last_decision_.reason + ")";
   if (!tries_.empty()) reason += "; " + RefusalSummary();
-  return Fail(std::move(reason));
+  return Fail(CaptureEnd::kTimeout, std::move(reason));
 }
 
 std::vector<TrackCorrespondence> CaptureSession::Tracks() const {

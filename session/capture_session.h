@@ -43,6 +43,19 @@ struct KeyframeBTry {
   std::string reason;  ///< The reconstruction's failure reason (empty when accepted).
 };
 
+/// How a capture ended (kOpen while it runs).
+enum class CaptureEnd {
+  kOpen,
+  kAccepted,      ///< The reconstruction accepted a B: an entry.
+  kRefused,       ///< The reconstruction refused B for a reason more motion cannot cure.
+  kLostTrack,     ///< Too few tracks left (after the refused B tries, if any).
+  kTimeout,       ///< No accepted B within timeout_s ("not enough motion").
+  kTooManyTries,  ///< max_tries B refused.
+  kAborted,       ///< Ended from outside (Abort: a camera or worker error).
+};
+/// "accepted", "refused", "lost_track", "not_enough_motion", "too_many_tries", "aborted".
+const char* CaptureEndName(CaptureEnd end);
+
 class CaptureSession {
  public:
   enum class Step {
@@ -70,10 +83,11 @@ class CaptureSession {
 
   /// Ends the capture from outside (a camera or worker error); a no-op when already ended.
   void Abort(const std::string& reason) {
-    if (open_) Fail(reason);
+    if (open_) Fail(CaptureEnd::kAborted, reason);
   }
 
   [[nodiscard]] bool open() const { return open_; }
+  [[nodiscard]] CaptureEnd end() const { return end_; }
   [[nodiscard]] bool b_in_flight() const { return in_flight_; }
   [[nodiscard]] const GateDecision& last_decision() const { return last_decision_; }
   [[nodiscard]] const std::vector<KeyframeBTry>& tries() const { return tries_; }
@@ -84,11 +98,12 @@ class CaptureSession {
   [[nodiscard]] std::string RefusalSummary() const;
 
  private:
-  Step Fail(std::string reason);
+  Step Fail(CaptureEnd end, std::string reason);
 
   CaptureSessionOptions options_;
   KeyframeGate gate_;
   bool open_ = false;
+  CaptureEnd end_ = CaptureEnd::kOpen;
   bool in_flight_ = false;
   bool lost_ = false;  // The track was lost while a B was in flight.
   double start_time_s_ = 0.0;
