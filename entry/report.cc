@@ -77,6 +77,7 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
          .seconds_after_a = t.seconds_after_a,
          .gate_parallax_deg = t.gate_parallax_deg,
          .tracks = t.tracks,
+         .after_lost_track = t.after_lost_track,
          .accepted = is_this ? r.success : t.accepted,
          .failure = TwoViewFailureName(is_this ? g.failure : t.failure),
          .reason = is_this ? r.failure_reason : t.reason});
@@ -158,6 +159,7 @@ json ToJson(const EntryReport& r) {
                        {"seconds_after_a", t.seconds_after_a},
                        {"gate_parallax_deg", t.gate_parallax_deg},
                        {"tracks", t.tracks},
+                       {"after_lost_track", t.after_lost_track},
                        {"accepted", t.accepted},
                        {"failure", t.failure},
                        {"reason", t.reason}});
@@ -262,6 +264,7 @@ std::string FromJson(const json& j, EntryReport* out) {
         Read(t, "seconds_after_a", &b.seconds_after_a);
         Read(t, "gate_parallax_deg", &b.gate_parallax_deg);
         Read(t, "tracks", &b.tracks);
+        Read(t, "after_lost_track", &b.after_lost_track);
         Read(t, "accepted", &b.accepted);
         Read(t, "failure", &b.failure);
         Read(t, "reason", &b.reason);

@@ -75,6 +75,7 @@ struct EntryReport {
     double seconds_after_a = 0.0;
     double gate_parallax_deg = 0.0;
     int tracks = 0;
+    bool after_lost_track = false;  ///< Handed over when the gate's tracks broke.
     bool accepted = false;
     std::string failure;  ///< TwoViewFailureName.
     std::string reason;

@@ -53,6 +53,7 @@ EntryReport Filled() {
                          .seconds_after_a = 0.4,
                          .gate_parallax_deg = 2.8,
                          .tracks = 200,
+                         .after_lost_track = true,
                          .accepted = true,
                          .failure = "none",
                          .reason = ""}};
@@ -81,6 +82,8 @@ TEST(EntryReport, RoundTripsThroughJson) {
   EXPECT_EQ(back.keyframe_b_tries[0].failure, "no_parallax");
   EXPECT_FALSE(back.keyframe_b_tries[0].accepted);
   EXPECT_TRUE(back.keyframe_b_tries[1].accepted);
+  EXPECT_FALSE(back.keyframe_b_tries[0].after_lost_track);
+  EXPECT_TRUE(back.keyframe_b_tries[1].after_lost_track);
   EXPECT_EQ(back.counts.gate_track_inliers, 140);
 }
 

@@ -248,9 +248,14 @@ std::string FormatCaptureLine(const CaptureEval& c) {
       continue;
     }
     char tl[512];
-    std::snprintf(tl, sizeof(tl),
-                  "\n           B refused after %.3f s (gate %.2f deg, %d tracks): %s",
-                  t.seconds_after_a, t.gate_parallax_deg, t.tracks, t.reason.c_str());
+    if (t.after_lost_track) {
+      std::snprintf(tl, sizeof(tl), "\n           B refused after %.3f s (tracks broke): %s",
+                    t.seconds_after_a, t.reason.c_str());
+    } else {
+      std::snprintf(tl, sizeof(tl),
+                    "\n           B refused after %.3f s (gate %.2f deg, %d tracks): %s",
+                    t.seconds_after_a, t.gate_parallax_deg, t.tracks, t.reason.c_str());
+    }
     out += tl;
   }
   return out;
@@ -280,6 +285,7 @@ std::string CaptureEvalToJson(const CaptureEvalResult& r) {
                        {"seconds_after_a", t.seconds_after_a},
                        {"gate_parallax_deg", t.gate_parallax_deg},
                        {"tracks", t.tracks},
+                       {"after_lost_track", t.after_lost_track},
                        {"accepted", t.accepted},
                        {"failure", TwoViewFailureName(t.failure)},
                        {"reason", t.reason}});

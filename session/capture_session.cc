@@ -1,5 +1,6 @@
 #include "session/capture_session.h"
 
+#include <algorithm>
 #include <map>
 
 namespace mm {
@@ -39,6 +40,7 @@ int CaptureSession::Start(const cv::Mat& gray_a, double time_s) {
   end_ = CaptureEnd::kOpen;
   in_flight_ = false;
   lost_ = false;
+  lost_reason_.clear();
   start_time_s_ = time_s;
   tries_.clear();
   failure_reason_.clear();
@@ -76,25 +78,42 @@ CaptureSession::Step CaptureSession::OnFrame(const cv::Mat& gray, uint64_t seque
   if (lost_) return Step::kWait;  // Waiting for the in-flight result only.
   last_decision_ = gate_.Update(gray);
   if (last_decision_.verdict == GateDecision::Verdict::kLostTrack) {
-    if (in_flight_) {
-      lost_ = true;
-      return Step::kWait;
+    lost_ = true;
+    lost_reason_ = last_decision_.reason;
+    if (in_flight_) return Step::kWait;
+    // The tracks broke between two frames (a jump the KLT pyramid cannot follow: dropped
+    // frames under load, a fast swing), which says nothing about the pair A-this frame. The
+    // reconstruction matches descriptors, not tracks: hand it this frame as a last B, and end
+    // the capture as lost only if it refuses.
+    if (options_.b_after_lost_track && can_submit &&
+        static_cast<int>(tries_.size()) < options_.max_tries) {
+      return SubmitB(sequence, time_s, /*after_lost_track=*/true);
     }
-    return Fail(CaptureEnd::kLostTrack, tries_.empty()
-                                            ? last_decision_.reason
-                                            : last_decision_.reason + " after " + RefusalSummary());
+    return Fail(CaptureEnd::kLostTrack, LostTrackReason());
   }
   if (in_flight_) return Step::kWait;
   if (const Step s = OnTime(time_s); s == Step::kFailed) return s;
   if (last_decision_.verdict != GateDecision::Verdict::kTakeB || !can_submit) return Step::kWait;
+  return SubmitB(sequence, time_s, /*after_lost_track=*/false);
+}
+
+CaptureSession::Step CaptureSession::SubmitB(uint64_t sequence, double time_s,
+                                             bool after_lost_track) {
   KeyframeBTry attempt;
   attempt.frame_sequence = sequence;
   attempt.seconds_after_a = time_s - start_time_s_;
-  attempt.gate_parallax_deg = last_decision_.median_parallax_deg;
+  attempt.gate_parallax_deg = after_lost_track ? 0.0 : last_decision_.median_parallax_deg;
   attempt.tracks = last_decision_.tracks;
+  attempt.after_lost_track = after_lost_track;
   tries_.push_back(attempt);
   in_flight_ = true;
   return Step::kSubmitB;
+}
+
+std::string CaptureSession::LostTrackReason() const {
+  const bool refused = std::any_of(tries_.begin(), tries_.end(),
+                                   [](const KeyframeBTry& t) { return !t.accepted; });
+  return refused ? lost_reason_ + " after " + RefusalSummary() : lost_reason_;
 }
 
 CaptureSession::Step CaptureSession::OnResult(bool accepted, TwoViewFailure failure,
@@ -110,11 +129,8 @@ CaptureSession::Step CaptureSession::OnResult(bool accepted, TwoViewFailure fail
     end_ = CaptureEnd::kAccepted;
     return Step::kDone;
   }
+  if (lost_) return Fail(CaptureEnd::kLostTrack, LostTrackReason() + " (last: " + reason + ")");
   if (!MoreMotionMayCure(failure)) return Fail(CaptureEnd::kRefused, reason);
-  if (lost_) {
-    return Fail(CaptureEnd::kLostTrack,
-                "lost track after " + RefusalSummary() + " (last: " + reason + ")");
-  }
   if (static_cast<int>(tries_.size()) >= options_.max_tries) {
     return Fail(CaptureEnd::kTooManyTries,
                 "no accepted keyframe B after " + RefusalSummary() + " (last: " + reason + ")");

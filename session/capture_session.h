@@ -7,7 +7,8 @@
 //   reconstructs A with this B (and the gate's tracks) -> OnResult: an entry ends the capture;
 //   a refusal that more motion can cure (MoreMotionMayCure: too little parallax, rotation,
 //   planar, no clear cheirality winner) keeps tracking from A and asks the next B for more
-//   parallax than the refused one; any other refusal, lost track or the timeout ends it.
+//   parallax than the refused one; any other refusal, lost track or the timeout ends it. When
+//   the tracks break, the frame that broke them goes to the reconstruction as a last B.
 // While a B is being reconstructed the gate keeps tracking, so a retry can follow at once.
 //
 // Thread-safety: thread-bound (one session per capture, driven by one thread).
@@ -29,6 +30,10 @@ struct CaptureSessionOptions {
   /// After a refused B, the next must reach this factor times the refused B's gate parallax.
   double retry_parallax_growth = 1.25;
   int max_tries = 10;  ///< B reconstructions per capture at most.
+  /// When the tracks break with no B in flight, hand the frame that broke them to the
+  /// reconstruction as a last B (its descriptor matching spans jumps KLT cannot) before
+  /// ending the capture as lost.
+  bool b_after_lost_track = true;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -38,6 +43,8 @@ struct KeyframeBTry {
   double seconds_after_a = 0.0;    ///< Frame time of B minus that of A.
   double gate_parallax_deg = 0.0;  ///< The gate's median triangulation angle at B.
   int tracks = 0;
+  /// Taken because the tracks broke (no gate verdict; see b_after_lost_track).
+  bool after_lost_track = false;
   bool accepted = false;
   TwoViewFailure failure = TwoViewFailure::kNone;
   std::string reason;  ///< The reconstruction's failure reason (empty when accepted).
@@ -99,13 +106,16 @@ class CaptureSession {
 
  private:
   Step Fail(CaptureEnd end, std::string reason);
+  Step SubmitB(uint64_t sequence, double time_s, bool after_lost_track);
+  [[nodiscard]] std::string LostTrackReason() const;
 
   CaptureSessionOptions options_;
   KeyframeGate gate_;
   bool open_ = false;
   CaptureEnd end_ = CaptureEnd::kOpen;
   bool in_flight_ = false;
-  bool lost_ = false;  // The track was lost while a B was in flight.
+  bool lost_ = false;  // The tracks broke: the B in flight is the last.
+  std::string lost_reason_;
   double start_time_s_ = 0.0;
   GateDecision last_decision_;
   std::vector<KeyframeBTry> tries_;

@@ -124,8 +124,44 @@ TEST(CaptureSession, LostTrackWhileBInFlightWaitsForItsResult) {
   EXPECT_EQ(session.OnFrame(blank, 2, 1.1, false), Step::kWait);
   EXPECT_EQ(session.OnResult(false, TwoViewFailure::kNoParallax, "too little parallax"),
             Step::kFailed);
-  EXPECT_EQ(session.failure_reason().rfind("lost track after 1 B refused", 0), 0u)
+  EXPECT_EQ(session.failure_reason().rfind("lost track (", 0), 0u) << session.failure_reason();
+  EXPECT_NE(session.failure_reason().find("after 1 B refused: no_parallax x1"), std::string::npos)
       << session.failure_reason();
+}
+
+// A jump the tracks cannot follow (dropped frames): the frame that broke them goes to the
+// reconstruction as a last B; the capture is lost only when that B is refused too, and never
+// when the reconstruction is busy or the option is off.
+TEST(CaptureSession, LostTrackHandsTheBreakingFrameToTheReconstruction) {
+  const Bundled data;
+  const cv::Mat blank(data.frames[0].size(), CV_8UC1, cv::Scalar(128));
+  CaptureSession session(data.K, {});
+  session.Start(data.frames[0], 0.0);
+  ASSERT_EQ(session.OnFrame(blank, 7, 0.5, true), Step::kSubmitB);
+  ASSERT_EQ(session.tries().size(), 1u);
+  EXPECT_TRUE(session.tries()[0].after_lost_track);
+  EXPECT_EQ(session.tries()[0].frame_sequence, 7u);
+  EXPECT_EQ(session.OnFrame(data.frames[1], 8, 0.6, true), Step::kWait);  // Only the result now.
+  EXPECT_EQ(session.OnResult(true, TwoViewFailure::kNone, {}), Step::kDone);
+
+  session.Start(data.frames[0], 0.0);
+  ASSERT_EQ(session.OnFrame(blank, 7, 0.5, true), Step::kSubmitB);
+  // Even a refusal more motion could cure ends it: there are no tracks left to wait on.
+  EXPECT_EQ(session.OnResult(false, TwoViewFailure::kNoParallax, "too little parallax"),
+            Step::kFailed);
+  EXPECT_EQ(session.end(), CaptureEnd::kLostTrack);
+  EXPECT_EQ(session.failure_reason().rfind("lost track (", 0), 0u) << session.failure_reason();
+
+  session.Start(data.frames[0], 0.0);
+  EXPECT_EQ(session.OnFrame(blank, 7, 0.5, false), Step::kFailed);  // Reconstruction busy.
+  EXPECT_EQ(session.end(), CaptureEnd::kLostTrack);
+
+  CaptureSessionOptions off;
+  off.b_after_lost_track = false;
+  CaptureSession strict(data.K, off);
+  strict.Start(data.frames[0], 0.0);
+  EXPECT_EQ(strict.OnFrame(blank, 7, 0.5, true), Step::kFailed);
+  EXPECT_TRUE(strict.tries().empty());
 }
 
 // One notion of "enough parallax": on real hand-held video the B the gate takes is one the

@@ -528,11 +528,16 @@ void Daemon::OnFrame() {
     return;
   }
   if (step != CaptureSession::Step::kSubmitB) return;
-  spdlog::info("capture {}: keyframe B = frame {} ({}), parallax {:.2f} deg, {} inliers{}",
-               captures_, frame->sequence, frame->source_id, d.median_parallax_deg,
-               d.essential_inliers,
-               session_.tries().size() > 1 ? fmt::format(" (try {})", session_.tries().size())
-                                           : std::string());
+  const std::string try_note =
+      session_.tries().size() > 1 ? fmt::format(" (try {})", session_.tries().size()) : "";
+  if (session_.tries().back().after_lost_track) {
+    spdlog::info("capture {}: keyframe B = frame {} ({}) as the tracks broke ({}){}", captures_,
+                 frame->sequence, frame->source_id, d.reason, try_note);
+  } else {
+    spdlog::info("capture {}: keyframe B = frame {} ({}), parallax {:.2f} deg, {} inliers{}",
+                 captures_, frame->sequence, frame->source_id, d.median_parallax_deg,
+                 d.essential_inliers, try_note);
+  }
   Job job{captures_,   keyframe_a_,       frame,           undistorted_a_,
           undistorted, session_.Tracks(), session_.tries()};
   if (!worker_->Submit(std::move(job))) {

@@ -50,14 +50,14 @@ TEST(DaemonStress, FiveHundredTriggerCycles) {
   for (const auto& [reason, count] : failures) {
     std::cout << "[ figures  ] failed " << count << "x: " << reason << "\n";
   }
-  // Pairs that wrap around the 6-frame loop (5 -> 0) lose their tracks, and how many do
-  // depends on timing (rate=max): measured 289-420 meshes of 500 on 2 busy to idle cores. So
-  // the assertions are that no cycle fails for another reason, and that the daemon keeps making
-  // meshes to the end (66 in the last 100 cycles in the run that measured 294), not degrade.
+  // Pairs that wrap around the 6-frame loop (5 -> 0) break the tracks; the frame that broke
+  // them goes to the reconstruction as the last B, which accepts most (500 meshes of 500 on 2
+  // busy cores; 289-420 when a broken track ended the capture). So: no cycle fails for another
+  // reason than a lost track, and the daemon keeps making meshes to the end, not degrade.
   for (const auto& [reason, count] : failures) EXPECT_EQ(reason, "lost track") << count << "x";
-  EXPECT_GE(ok, cycles * 4 / 10);
+  EXPECT_GE(ok, cycles * 8 / 10);
   if (cycles >= 100) {
-    EXPECT_GE(ok_last_100, 30);
+    EXPECT_GE(ok_last_100, 80);
   }
   if (cycles >= 100) {
     EXPECT_LE(rss_end, rss_after_50 * 11 / 10);
