@@ -74,9 +74,16 @@ std::string CaptureSession::RefusalSummary() const {
 
 CaptureSession::Step CaptureSession::OnFrame(const cv::Mat& gray, uint64_t sequence, double time_s,
                                              bool can_submit) {
-  if (!open_) return Step::kWait;
-  if (lost_) return Step::kWait;  // Waiting for the in-flight result only.
-  last_decision_ = gate_.Update(gray);
+  if (!wants_frames()) return Step::kWait;
+  return OnTracked(Track(gray), sequence, time_s, can_submit);
+}
+
+GateDecision CaptureSession::Track(const cv::Mat& gray) { return gate_.Update(gray); }
+
+CaptureSession::Step CaptureSession::OnTracked(const GateDecision& decision, uint64_t sequence,
+                                               double time_s, bool can_submit) {
+  if (!wants_frames()) return Step::kWait;  // Ended, or waiting for the last B's result only.
+  last_decision_ = decision;
   if (last_decision_.verdict == GateDecision::Verdict::kLostTrack) {
     lost_ = true;
     lost_reason_ = last_decision_.reason;

@@ -80,7 +80,18 @@ class CaptureSession {
 
   /// One newer frame (8-bit gray, undistorted). `can_submit`: the reconstruction is idle, so
   /// a B may be handed to it now (otherwise the gate only keeps its tracks alive).
+  /// Track, then OnTracked.
   Step OnFrame(const cv::Mat& gray, uint64_t sequence, double time_s, bool can_submit);
+
+  /// The session takes frames (open, and the tracks have not broken).
+  [[nodiscard]] bool wants_frames() const { return open_ && !lost_; }
+  /// OnFrame in two halves, for a caller that tracks off its event loop: Track is the gate's
+  /// work on the frame (KLT and the two-view probe: the expensive part). It touches the gate
+  /// only, so it may run on another thread meanwhile the caller may call anything but the
+  /// methods that touch the gate too: Start, OnFrame, OnResult and Tracks. OnTracked applies
+  /// the capture's policy to its decision (ignored when the session no longer wants frames).
+  GateDecision Track(const cv::Mat& gray);
+  Step OnTracked(const GateDecision& decision, uint64_t sequence, double time_s, bool can_submit);
 
   /// The reconstruction's verdict on the B of the last kSubmitB.
   Step OnResult(bool accepted, TwoViewFailure failure, const std::string& reason);

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "app/control.h"
+#include "app/gate_thread.h"
 #include "app/pair_job.h"
 #include "base/unique_fd.h"
 #include "calib/calib_io.h"
@@ -244,6 +245,9 @@ class Daemon {
  private:
   void OnTrigger(const char* origin, json* reply);
   void OnFrame();
+  void OnGateDone();
+  void ApplyGate(const TrackedFrame& tracked);
+  void SettleGate();
   void OnJobDone();
   void OnTimer();
   void OnClient(int fd);
@@ -262,6 +266,7 @@ class Daemon {
   UniqueFd epoll_;
   UniqueFd frame_event_;
   UniqueFd done_event_;
+  UniqueFd gate_event_;
   UniqueFd signal_fd_;
   UniqueFd timer_fd_;
   UniqueFd listen_fd_;
@@ -269,6 +274,7 @@ class Daemon {
   std::unique_ptr<CaptureThread> capture_;
   std::vector<std::unique_ptr<Trigger>> triggers_;  // SIGUSR1, the GPIO button when configured.
   std::unique_ptr<Worker> worker_;
+  std::unique_ptr<GateThread> gate_;  // Before session_ goes: declared after it.
 
   State state_ = State::kIdle;
   uint64_t captures_ = 0;
@@ -320,6 +326,7 @@ int Daemon::Run() {
   epoll_.reset(::epoll_create1(EPOLL_CLOEXEC));
   frame_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   done_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
+  gate_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   sigset_t signals;
   sigemptyset(&signals);
   for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
@@ -336,7 +343,8 @@ int Daemon::Run() {
   timer_fd_.reset(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC));
   const itimerspec period{{0, 100'000'000}, {0, 100'000'000}};
   ::timerfd_settime(timer_fd_.get(), 0, &period, nullptr);
-  for (int fd : {frame_event_.get(), done_event_.get(), signal_fd_.get(), timer_fd_.get()}) {
+  for (int fd : {frame_event_.get(), done_event_.get(), gate_event_.get(), signal_fd_.get(),
+                 timer_fd_.get()}) {
     AddFd(fd);
   }
 
@@ -376,6 +384,7 @@ int Daemon::Run() {
   }
   worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_,
                                      done_event_.get());
+  gate_ = std::make_unique<GateThread>(undistorter_, &session_, gate_event_.get());
 
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   last_watchdog_ = std::chrono::steady_clock::now();
@@ -407,6 +416,9 @@ int Daemon::Run() {
       } else if (fd == frame_event_.get()) {
         DrainEventFd(fd);
         OnFrame();
+      } else if (fd == gate_event_.get()) {
+        DrainEventFd(fd);
+        OnGateDone();
       } else if (fd == done_event_.get()) {
         DrainEventFd(fd);
         OnJobDone();
@@ -436,6 +448,7 @@ int Daemon::Run() {
     }
   }
   sd_notify(0, "STOPPING=1");
+  gate_.reset();
   worker_.reset();  // Finishes the job in progress: an entry is committed whole or not at all.
   capture_->Stop();
   ::unlink(config_.control_socket.c_str());
@@ -449,6 +462,9 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
     spdlog::warn("trigger ({}) refused: busy {}", origin, Name(state_));
     return;
   }
+  // A frame of an ended capture may still be in the gate: finished first, its result dropped.
+  gate_->WaitIdle();
+  (void)gate_->Take();
   FramePtr latest = capture_->Latest();
   if (!latest) {
     *reply = {{"ok", false}, {"error", "no frame from the camera yet"}};
@@ -501,25 +517,44 @@ void Daemon::EndCapture(const std::string& error) {
 
 void Daemon::OnFrame() {
   // Frames feed the session while a capture is open, also while a B is being reconstructed
-  // (the tracks stay alive for a later B if that one is refused).
-  if (!session_.open()) return;
+  // (the tracks stay alive for a later B if that one is refused). The gate thread tracks A's
+  // corners into the newest frame when it is free (frames that arrive meanwhile are skipped;
+  // KLT's pyramid absorbs the larger step, and a jump it cannot goes to the reconstruction).
+  if (!session_.wants_frames() || gate_->busy()) return;
   FramePtr frame = capture_->Latest();
   if (!frame || frame->sequence <= last_tracked_sequence_) return;
   last_tracked_sequence_ = frame->sequence;
-  // The gate tracks A's corners into the newest frame (frames dropped meanwhile are skipped;
-  // KLT's pyramid absorbs the larger step).
-  cv::Mat undistorted;
-  try {
-    undistorted = undistorter_.Apply(frame->image);
-  } catch (const std::exception& e) {
+  gate_->Post(captures_, std::move(frame));
+}
+
+void Daemon::OnGateDone() {
+  if (std::optional<TrackedFrame> tracked = gate_->Take()) {
+    if (tracked->capture_id == captures_) ApplyGate(*tracked);
+  }
+  OnFrame();  // A newer frame may be waiting.
+}
+
+// Before the session's gate-touching calls (OnResult): the frame in the gate finishes, and its
+// decision is applied first (with a B in flight, it only keeps the tracks or marks them lost).
+void Daemon::SettleGate() {
+  gate_->WaitIdle();
+  if (std::optional<TrackedFrame> tracked = gate_->Take()) {
+    if (tracked->capture_id == captures_) ApplyGate(*tracked);
+  }
+}
+
+void Daemon::ApplyGate(const TrackedFrame& tracked) {
+  if (!session_.open()) return;
+  if (!tracked.error.empty()) {
     if (state_ == State::kTracking) {
-      EndCapture(std::string("frame does not fit the calibration: ") + e.what());
+      EndCapture("frame does not fit the calibration: " + tracked.error);
     }
     return;
   }
+  const FramePtr& frame = tracked.frame;
   const CaptureSession::Step step =
-      session_.OnFrame(Gray(undistorted), frame->sequence, NowSeconds(),
-                       /*can_submit=*/state_ == State::kTracking);
+      session_.OnTracked(tracked.decision, frame->sequence, NowSeconds(),
+                         /*can_submit=*/state_ == State::kTracking);
   const GateDecision& d = session_.last_decision();
   spdlog::debug("capture {}: frame {}: {} tracks, parallax {:.3f} deg: {}", captures_,
                 frame->sequence, d.tracks, d.median_parallax_deg, d.reason);
@@ -538,8 +573,8 @@ void Daemon::OnFrame() {
                  captures_, frame->sequence, frame->source_id, d.median_parallax_deg,
                  d.essential_inliers, try_note);
   }
-  Job job{captures_,   keyframe_a_,       frame,           undistorted_a_,
-          undistorted, session_.Tracks(), session_.tries()};
+  Job job{captures_,          keyframe_a_,       frame,           undistorted_a_,
+          tracked.undistorted, session_.Tracks(), session_.tries()};
   if (!worker_->Submit(std::move(job))) {
     EndCapture("worker busy; capture dropped");
     return;
@@ -548,6 +583,7 @@ void Daemon::OnFrame() {
 }
 
 void Daemon::OnJobDone() {
+  SettleGate();  // OnResult may raise the gate's target.
   while (std::optional<JobOutcome> o = worker_->TakeOutcome()) {
     if (o->capture_id != captures_ || !session_.open()) continue;  // A capture already ended.
     if (o->refused) {
@@ -556,6 +592,7 @@ void Daemon::OnJobDone() {
         spdlog::info("capture {}: keyframe B refused ({}); tracking on for a later B",
                      o->capture_id, o->refusal);
         SetState(State::kTracking);
+        OnFrame();
         continue;
       }
       EndCapture(session_.failure_reason());
