@@ -22,15 +22,22 @@ EncodedEntry EncodeEntry(const PairReconstruction& r, const cv::Mat& image_a,
   cv::imencode(".jpg", image_b, jpeg_b, {cv::IMWRITE_JPEG_QUALITY, 92});
   const std::string texture(jpeg.begin(), jpeg.end());
   // mesh.glb is the primary output (one file, texture inside).
-  out.files.push_back({"mesh.glb", EncodeGlb(r.mesh, texture)});
-  out.files.push_back({"mesh.ply", EncodePly(r.mesh, "monomesh two-view mesh, up to scale")});
+  const bool metric = report->scale.units == "metres";
+  GlbInfo glb;
+  if (metric) {
+    glb.scale_note = "metres (scale from " + report->scale.source + ", " +
+                     std::to_string(report->scale.metres_per_unit) + " m per baseline unit)";
+  }
+  const std::string units = metric ? "in metres" : "up to scale";
+  out.files.push_back({"mesh.glb", EncodeGlb(r.mesh, texture, glb)});
+  out.files.push_back({"mesh.ply", EncodePly(r.mesh, "monomesh two-view mesh, " + units)});
   out.files.push_back({"mesh.obj", EncodeObj(r.mesh, "mesh.mtl")});
   out.files.push_back({"mesh.mtl", EncodeMtl("texture.jpg")});
   out.files.push_back({"texture.jpg", texture});
   out.files.push_back({"keyframe_b.jpg", std::string(jpeg_b.begin(), jpeg_b.end())});
   const auto point_colors = SampleColors(image_a, r.point_pixels_a);
   out.files.push_back({"points.ply", EncodePointsPly(g.points_in_cam_a, point_colors,
-                                                     "monomesh two-view points, up to scale")});
+                                                     "monomesh two-view points, " + units)});
   // The sparse model for COLMAP / OpenMVS: the entry folder is the model folder.
   ColmapInput colmap;
   colmap.width = image_a.cols;

@@ -47,7 +47,7 @@ void ReadKeyframe(const json& j, KeyframeInfo* k) {
 EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
                             const KeyframeInfo& b, const BouguetCamera& camera,
                             const PairOptions& options, bool features_a_precomputed,
-                            std::span<const KeyframeBTry> tries) {
+                            std::span<const KeyframeBTry> tries, const ScaleEstimate& scale) {
   const TwoViewResult& g = r.geometry;
   EntryReport report;
   report.monomesh_version = MM_VERSION;
@@ -94,6 +94,13 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
   report.relative_pose.rotation = g.rotation;
   report.relative_pose.quaternion_wxyz = {q.w(), q.x(), q.y(), q.z()};
   report.relative_pose.translation = g.translation;
+  report.scale = {.source = ScaleSourceName(scale.source),
+                  .units = scale.scaled() ? "metres" : "baseline",
+                  .metres_per_unit = scale.scaled() ? scale.metres_per_unit : 1.0,
+                  .uncertainty_rel = scale.uncertainty_rel,
+                  .odometry_metres_per_unit = scale.odometry_metres_per_unit,
+                  .floor_metres_per_unit = scale.floor_metres_per_unit,
+                  .why_not = scale.why_not};
   report.counts = {.features_a = r.features_a,
                    .features_b = r.features_b,
                    .matches = r.matches,
@@ -183,7 +190,13 @@ json ToJson(const EntryReport& r) {
                                {rot(2, 0), rot(2, 1), rot(2, 2)}}},
                              {"quaternion_wxyz", {q(0), q(1), q(2), q(3)}},
                              {"translation", {t.x(), t.y(), t.z()}}};
-  report["scale"] = r.scale;
+  report["scale"] = {{"source", r.scale.source},
+                     {"units", r.scale.units},
+                     {"metres_per_unit", r.scale.metres_per_unit},
+                     {"uncertainty_rel", r.scale.uncertainty_rel},
+                     {"odometry_metres_per_unit", r.scale.odometry_metres_per_unit},
+                     {"floor_metres_per_unit", r.scale.floor_metres_per_unit},
+                     {"why_not", r.scale.why_not}};
   const auto& n = r.counts;
   report["counts"] = {{"features_a", n.features_a},
                       {"features_b", n.features_b},
@@ -294,7 +307,17 @@ std::string FromJson(const json& j, EntryReport* out) {
     }
     ReadVector(pose, "quaternion_wxyz", &r.relative_pose.quaternion_wxyz);
     ReadVector(pose, "translation", &r.relative_pose.translation);
-    Read(j, "scale", &r.scale);
+    // Layout 1 had a note string here (always up to scale): the defaults say the same.
+    if (const auto it = j.find("scale"); it != j.end() && it->is_object()) {
+      const json& scale = *it;
+      Read(scale, "source", &r.scale.source);
+      Read(scale, "units", &r.scale.units);
+      Read(scale, "metres_per_unit", &r.scale.metres_per_unit);
+      Read(scale, "uncertainty_rel", &r.scale.uncertainty_rel);
+      Read(scale, "odometry_metres_per_unit", &r.scale.odometry_metres_per_unit);
+      Read(scale, "floor_metres_per_unit", &r.scale.floor_metres_per_unit);
+      Read(scale, "why_not", &r.scale.why_not);
+    }
     const json& n = Object(j, "counts");
     Read(n, "features_a", &r.counts.features_a);
     Read(n, "features_b", &r.counts.features_b);
@@ -365,7 +388,10 @@ std::string BriefReport(const EntryReport& r) {
        std::to_string(r.quality.median_triangulation_angle_deg));
   line("b_tries", std::to_string(r.keyframe_b_tries.size()));
   line("total_recon_s", std::to_string(r.timings_s.total_recon));
-  line("scale", r.scale);
+  line("scale", r.scale.units == "metres"
+                    ? r.scale.source + " " + std::to_string(r.scale.metres_per_unit) + " m/unit"
+                    : "none (up to scale" + (r.scale.why_not.empty() ? std::string(")")
+                                                                     : ": " + r.scale.why_not + ")"));
   return out;
 }
 

@@ -22,11 +22,12 @@
 
 #include "calib/camera_model.h"
 #include "recon/pipeline.h"
+#include "scale/metric_scale.h"
 #include "session/capture_session.h"
 
 namespace mm {
 
-inline constexpr int kEntryReportSchemaVersion = 1;
+inline constexpr int kEntryReportSchemaVersion = 2;  ///< 2: `scale` is an object.
 
 /// Where a keyframe came from, for the report.
 struct KeyframeInfo {
@@ -94,7 +95,7 @@ struct EntryReport {
     std::array<double, 5> kc{};
   } camera;
 
-  /// cam_b_from_cam_a: X_b = R X_a + t, |t| = 1.
+  /// cam_b_from_cam_a: X_b = R X_a + t; |t| = 1 unscaled, the baseline in metres scaled.
   struct RelativePose {
     std::string convention = "cam_b_from_cam_a: X_b = R X_a + t";
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
@@ -102,8 +103,17 @@ struct EntryReport {
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   } relative_pose;
 
-  std::string scale =
-      "up to scale: a monocular pair fixes no metric scale; |t| = 1 (the baseline) is the unit";
+  /// The entry's units (scale/metric_scale.h): metres when a source scaled it (every length
+  /// in the entry and its files is then in metres), else the baseline is the unit.
+  struct Scale {
+    std::string source = "none";  ///< ScaleSourceName of the source used.
+    std::string units = "baseline";  ///< "metres" or "baseline".
+    double metres_per_unit = 1.0;  ///< Applied to the reconstruction (1 when unscaled).
+    double uncertainty_rel = 0.0;
+    double odometry_metres_per_unit = 0.0;  ///< Each source's figure (0: none).
+    double floor_metres_per_unit = 0.0;
+    std::string why_not;  ///< Why unscaled, or why a source was passed over.
+  } scale;
 
   struct Counts {
     int features_a = 0;
@@ -163,7 +173,8 @@ struct EntryReport {
 EntryReport MakeEntryReport(const PairReconstruction& recon, const KeyframeInfo& a,
                             const KeyframeInfo& b, const BouguetCamera& camera,
                             const PairOptions& options, bool features_a_precomputed,
-                            std::span<const KeyframeBTry> tries = {});
+                            std::span<const KeyframeBTry> tries = {},
+                            const ScaleEstimate& scale = {});
 
 nlohmann::json ToJson(const EntryReport& report);
 

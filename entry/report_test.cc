@@ -94,8 +94,35 @@ TEST(EntryReport, BriefReportHasOneKeyValueLineEach) {
   EXPECT_NE(brief.find("mesh_vertices 250\n"), std::string::npos) << brief;
   EXPECT_NE(brief.find("gate_track_inliers 140\n"), std::string::npos) << brief;
   EXPECT_NE(brief.find("b_tries 2\n"), std::string::npos) << brief;
-  EXPECT_NE(brief.find("scale up to scale"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("scale none (up to scale)"), std::string::npos) << brief;
   EXPECT_EQ(brief.find("failure "), std::string::npos) << brief;
+}
+
+// A pair the odometry scaled: report.json says metres, the figures and the source, and reads
+// back; a layout-1 report's note string reads as unscaled.
+TEST(EntryReport, ScaleSaysTheUnitsAndTheSource) {
+  PairReconstruction recon;
+  recon.success = true;
+  recon.geometry.translation = Eigen::Vector3d(0.3, 0, 0);
+  ScaleEstimate scale;
+  scale.source = ScaleSource::kOdometry;
+  scale.metres_per_unit = 0.3;
+  scale.odometry_metres_per_unit = 0.3;
+  scale.uncertainty_rel = 0.047;
+  const EntryReport r = MakeEntryReport(recon, {}, {}, BouguetCamera{}, PairOptions{}, false, {},
+                                        scale);
+  const json j = ToJson(r);
+  EXPECT_EQ(j["scale"]["units"], "metres");
+  EXPECT_EQ(j["scale"]["source"], "odometry");
+  EXPECT_EQ(j["scale"]["metres_per_unit"], 0.3);
+  EntryReport back;
+  ASSERT_EQ(FromJson(j, &back), "");
+  EXPECT_EQ(back.scale.uncertainty_rel, 0.047);
+  EXPECT_NE(BriefReport(back).find("scale odometry 0.300000 m/unit"), std::string::npos);
+  ASSERT_EQ(FromJson(json{{"scale", "up to scale: ..."}}, &back), "");
+  EXPECT_EQ(back.scale.units, "baseline");
+  EXPECT_EQ(MakeEntryReport(recon, {}, {}, BouguetCamera{}, PairOptions{}, false).scale.source,
+            "none");
 }
 
 TEST(EntryReport, FailedPairHasNoPreviewOrEncodeTimings) {

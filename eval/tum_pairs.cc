@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <ctime>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -120,6 +121,15 @@ EvalSummary Summarize(const std::vector<PairEval>& pairs) {
   s.mesh_coverage = Percentile(mesh_cov, 50);
   s.mesh_depth_rel_err_median = Percentile(mesh_med, 50);
   s.mesh_depth_rel_err_p90 = Percentile(mesh_p90, 50);
+  std::vector<double> scale_err;
+  for (const PairEval& p : pairs) {
+    if (!p.success || !p.has_scale) continue;
+    ++s.scale_pairs;
+    if (p.scale.scaled() && p.true_metres_per_unit > 0) scale_err.push_back(p.scale_rel_err);
+  }
+  s.scaled_pairs = static_cast<int>(scale_err.size());
+  s.scale_rel_err_median = Percentile(scale_err, 50);
+  s.scale_rel_err_p90 = Percentile(scale_err, 90);
   s.depth_pairs = static_cast<int>(depth.size());
   s.depth_rel_err_median = Percentile(depth, 50);
   double sum = 0;
@@ -230,6 +240,31 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
         p.rot_err_deg = RotationErrorDeg(r.geometry.rotation, gt.linear());
         p.trans_err_deg = DirectionErrorDeg(r.geometry.translation, gt.translation());
       }
+      if (r.success && options.scale.source != ScaleSource::kNone) {
+        p.has_scale = true;
+        ScaleInputs in;
+        in.baseline_units = r.geometry.translation.norm();
+        in.points_in_a = r.geometry.points_in_cam_a;
+        if (wa && wb) {
+          // The robot's odometry, simulated: the true camera centres with noise.
+          std::mt19937 rng(options.odom_seed + static_cast<uint32_t>(p.index_a));
+          std::normal_distribution<double> noise(0.0, options.odom_noise_m);
+          const auto noisy = [&](const Eigen::Vector3d& c) {
+            return options.odom_noise_m > 0
+                       ? Eigen::Vector3d(c + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
+                       : c;
+          };
+          in.odometry_a_m = noisy(wa->translation());
+          in.odometry_b_m = noisy(wb->translation());
+          p.true_metres_per_unit = p.gt_baseline_m / in.baseline_units;
+        } else {
+          in.odometry_why_not = "no ground truth to simulate odometry from";
+        }
+        p.scale = EstimateScale(in, options.scale);
+        if (p.scale.scaled() && p.true_metres_per_unit > 0) {
+          p.scale_rel_err = std::abs(p.scale.metres_per_unit / p.true_metres_per_unit - 1.0);
+        }
+      }
     }
     if (r.success && !depth_frames.empty()) {
       const int d = Nearest(depth_frames, p.time_a_s, options.max_depth_dt_s);
@@ -278,6 +313,16 @@ std::string FormatPairLine(const PairEval& p) {
                   100 * p.mesh.depth_rel_err_p90);
     line += buf;
   }
+  if (p.has_scale) {
+    if (p.scale.scaled()) {
+      std::snprintf(buf, sizeof(buf), "  scale %s %.4f m/unit (true %.4f, err %.2f %%)",
+                    ScaleSourceName(p.scale.source), p.scale.metres_per_unit,
+                    p.true_metres_per_unit, 100 * p.scale_rel_err);
+      line += buf;
+    } else {
+      line += "  unscaled (" + p.scale.why_not + ")";
+    }
+  }
   if (!p.success) line += "  [" + p.classification + ": " + p.failure_reason + "]";
   return line;
 }
@@ -308,6 +353,14 @@ std::string FormatSummary(const EvalSummary& s) {
                   100 * s.mesh_depth_rel_err_p90, s.mesh_pairs);
     out += buf;
   }
+  if (s.scale_pairs > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "  metric scale      error median %.2f %%, p90 %.2f %% over %d scaled pair(s) of "
+                  "%d\n",
+                  100 * s.scale_rel_err_median, 100 * s.scale_rel_err_p90, s.scaled_pairs,
+                  s.scale_pairs);
+    out += buf;
+  }
   return out;
 }
 
@@ -329,6 +382,12 @@ std::string EvalToJson(const EvalResult& result) {
                                       {"pairs", s.depth_pairs}};
   } else {
     summary["point_depth_rel_err"] = {{"median", nullptr}, {"within_10pct", nullptr}};
+  }
+  if (s.scale_pairs > 0) {
+    summary["scale"] = {{"pairs", s.scaled_pairs},
+                        {"asked", s.scale_pairs},
+                        {"rel_err_median", s.scale_rel_err_median},
+                        {"rel_err_p90", s.scale_rel_err_p90}};
   }
   if (s.mesh_pairs > 0) {
     summary["mesh"] = {{"coverage", s.mesh_coverage},
@@ -378,6 +437,17 @@ std::string EvalToJson(const EvalResult& result) {
       j["point_depth_rel_err"] = {{"median", p.depth_rel_err_median},
                                   {"within_10pct", p.depth_within_10pct},
                                   {"points", p.depth_points}};
+    }
+    if (p.has_scale) {
+      json scale = {{"source", ScaleSourceName(p.scale.source)},
+                    {"metres_per_unit", p.scale.metres_per_unit},
+                    {"uncertainty_rel", p.scale.uncertainty_rel},
+                    {"why_not", p.scale.why_not}};
+      if (p.true_metres_per_unit > 0) {
+        scale["true_metres_per_unit"] = p.true_metres_per_unit;
+        if (p.scale.scaled()) scale["rel_err"] = p.scale_rel_err;
+      }
+      j["scale"] = std::move(scale);
     }
     if (p.mesh.valid) {
       j["mesh"] = {{"coverage", p.mesh.coverage},

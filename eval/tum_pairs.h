@@ -15,6 +15,7 @@
 #include "base/stats.h"
 #include "calib/camera_model.h"
 #include "recon/pipeline.h"
+#include "scale/metric_scale.h"
 
 namespace mm {
 
@@ -36,6 +37,12 @@ struct EvalOptions {
   double max_gt_dt_s = 0.1;        ///< Ground-truth extrapolation limit.
   PairOptions pair;                ///< The reconstruction's options.
   bool mesh_figures = false;       ///< Mesh figures where depth is known (EvaluatePairMesh).
+  /// Metric scale per pair (scale/metric_scale.h); source none: no scale figures. The
+  /// odometry is simulated from the ground truth: each keyframe's camera centre plus
+  /// N(0, odom_noise_m) per axis, seeded per pair (odom_seed + index of A).
+  ScaleOptions scale;
+  double odom_noise_m = 0.0;
+  uint32_t odom_seed = 1;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -63,6 +70,12 @@ struct PairEval {
   double depth_rel_err_median = 0;     ///< Median |s z - d| / d.
   double depth_within_10pct = 0;       ///< Share of points with relative error < 0.1.
   MeshFigures mesh;                    ///< With depth and options.mesh_figures.
+  /// With options.scale.source other than none: the estimate, and against the ground truth's
+  /// metres per unit (its baseline over the reconstruction's) where both exist.
+  bool has_scale = false;
+  ScaleEstimate scale;
+  double true_metres_per_unit = 0;
+  double scale_rel_err = 0;            ///< |estimate / truth - 1| (scaled pairs with GT).
 };
 
 struct EvalSummary {
@@ -78,6 +91,9 @@ struct EvalSummary {
   double mesh_coverage = 0;            ///< Median over those pairs.
   double mesh_depth_rel_err_median = 0;  ///< Median over those pairs of their medians.
   double mesh_depth_rel_err_p90 = 0;     ///< Median over those pairs of their p90s.
+  int scale_pairs = 0;                 ///< Succeeded pairs the scale was asked of.
+  int scaled_pairs = 0;                ///< Of those, scaled and with ground truth.
+  double scale_rel_err_median = 0, scale_rel_err_p90 = 0;  ///< Over the scaled pairs.
 };
 
 struct EvalResult {

@@ -71,6 +71,15 @@ Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& option
   return ExtractSift(ToGray(image), options.sift);
 }
 
+void ScalePairReconstruction(double metres_per_unit, PairReconstruction* pair) {
+  TwoViewResult& g = pair->geometry;
+  g.translation *= metres_per_unit;
+  for (Eigen::Vector3d& p : g.points_in_cam_a) p *= metres_per_unit;
+  const auto f = static_cast<float>(metres_per_unit);
+  for (Eigen::Vector3f& v : pair->mesh.vertices) v *= f;
+  pair->mesh_summary.voxel_size *= metres_per_unit;
+}
+
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options) {
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {

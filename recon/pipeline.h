@@ -71,6 +71,11 @@ struct PairReconstruction {
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options);
 
+/// Expresses the pair in other units: the translation, the points, the mesh vertices and the
+/// voxel size times `metres_per_unit` (e.g. metres from scale/metric_scale.h; rotations,
+/// pixels and angles keep). After it, |translation| is the baseline in the new units.
+void ScalePairReconstruction(double metres_per_unit, PairReconstruction* pair);
+
 /// SIFT of one keyframe (BGR8 or GRAY8) with `options.sift`: computed for keyframe A once,
 /// while the appliance waits for B.
 Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options);

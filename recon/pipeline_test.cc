@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -79,6 +80,25 @@ TEST(ReconstructPair, TumKeyframePairMatchesGroundTruth) {
     EXPECT_GT(r.refinement.refined, r.refinement.points / 2);
     EXPECT_EQ(r.point_pixels_b.size(), r.geometry.points_in_cam_a.size());
   }
+}
+
+// Lengths scale, rotations and pixels keep: the pair in metres.
+TEST(ScalePairReconstruction, ScalesEveryLengthOnly) {
+  PairReconstruction r;
+  r.geometry.rotation = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  r.geometry.translation = Eigen::Vector3d(0.6, 0.0, 0.8);
+  r.geometry.points_in_cam_a = {Eigen::Vector3d(1, 2, 4)};
+  r.point_pixels_a = {Eigen::Vector2d(10, 20)};
+  r.mesh.vertices = {Eigen::Vector3f(1, 1, 2)};
+  r.mesh_summary.voxel_size = 0.05;
+  const Eigen::Matrix3d rotation = r.geometry.rotation;
+  ScalePairReconstruction(0.25, &r);
+  EXPECT_NEAR(r.geometry.translation.norm(), 0.25, 1e-12);
+  EXPECT_EQ(r.geometry.points_in_cam_a[0], Eigen::Vector3d(0.25, 0.5, 1.0));
+  EXPECT_EQ(r.mesh.vertices[0], Eigen::Vector3f(0.25f, 0.25f, 0.5f));
+  EXPECT_NEAR(r.mesh_summary.voxel_size, 0.0125, 1e-15);
+  EXPECT_EQ(r.geometry.rotation, rotation);
+  EXPECT_EQ(r.point_pixels_a[0], Eigen::Vector2d(10, 20));
 }
 
 TEST(ReconstructPair, IdenticalImagesFailWithReason) {

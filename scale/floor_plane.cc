@@ -61,13 +61,22 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
   }
   const Eigen::Vector3d up = up_in_cam.normalized();
   const double cos_max = std::cos(options.max_normal_deg * kPi / 180.0);
+  // The floor is below the camera: samples from those points only.
+  std::vector<int> below;
+  for (int i = 0; i < n; ++i) {
+    if (points_in_cam[i].dot(up) < 0) below.push_back(i);
+  }
+  if (static_cast<int>(below.size()) < std::max(3, options.min_inliers)) {
+    out.why_not = "too few points below the camera for a floor (" + std::to_string(below.size()) + ")";
+    return out;
+  }
   std::mt19937 rng(options.seed);
-  std::uniform_int_distribution<int> pick(0, n - 1);
+  std::uniform_int_distribution<size_t> pick(0, below.size() - 1);
   // Hypotheses that are horizontal, below the camera and supported; duplicates of one plane
   // are many, which the selection below does not mind.
   std::vector<Plane> candidates;
   for (int it = 0; it < options.iterations; ++it) {
-    const int i = pick(rng), j = pick(rng), k = pick(rng);
+    const int i = below[pick(rng)], j = below[pick(rng)], k = below[pick(rng)];
     if (i == j || j == k || i == k) continue;
     Eigen::Vector3d normal =
         (points_in_cam[j] - points_in_cam[i]).cross(points_in_cam[k] - points_in_cam[i]);
@@ -89,11 +98,17 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
   }
   int best_support = 0;
   for (const Plane& p : candidates) best_support = std::max(best_support, p.support);
-  // The lowest well-supported plane; among planes at the same height, the best supported.
-  const Plane* floor = nullptr;
+  // The best supported plane, or a lower one parallel to it with enough support.
+  const Plane* best = nullptr;
+  for (const Plane& p : candidates) {
+    if (best == nullptr || p.support > best->support) best = &p;
+  }
+  const double cos_parallel = std::cos(options.parallel_deg * kPi / 180.0);
+  const Plane* floor = best;
   for (const Plane& p : candidates) {
     if (p.support < options.lower_plane_support * best_support) continue;
-    if (floor == nullptr || p.distance > floor->distance * (1.0 + options.inlier_distance_rel) ||
+    if (p.normal.dot(best->normal) < cos_parallel) continue;
+    if (p.distance > floor->distance * (1.0 + options.inlier_distance_rel) ||
         (p.distance > floor->distance * (1.0 - options.inlier_distance_rel) &&
          p.support > floor->support)) {
       floor = &p;

@@ -16,8 +16,8 @@ set(rules
   "recon:base/|calib/"
   "render:base/|recon/"
   "session:base/|calib/|recon/"
-  "entry:base/|calib/|recon/|render/|spool/|session/"
-  "eval:base/|calib/|dataset/|recon/|render/|entry/|session/"
+  "entry:base/|scale/|calib/|recon/|render/|spool/|session/"
+  "eval:base/|scale/|calib/|dataset/|recon/|render/|entry/|session/"
   "synth:base/|calib/|recon/|render/"
   "capture:base/|dataset/")
 set(failures "")

@@ -8,13 +8,24 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                          const KeyframeInfo& b, const BouguetCamera& camera,
                          const PairOptions& options, const Features* features_a,
                          std::span<const TrackCorrespondence> tracks,
-                         std::span<const KeyframeBTry> tries) {
+                         std::span<const KeyframeBTry> tries, const PairScaleInputs& scale) {
   PairJobResult out;
   const auto start = std::chrono::steady_clock::now();
   out.recon = features_a != nullptr
                   ? ReconstructPair(*features_a, image_a, image_b, camera, options, tracks)
                   : ReconstructPair(image_a, image_b, camera, options);
-  out.report = MakeEntryReport(out.recon, a, b, camera, options, features_a != nullptr, tries);
+  ScaleEstimate metric;
+  if (out.recon.success) {
+    metric = EstimateScale({.odometry_a_m = scale.odometry_a_m,
+                            .odometry_b_m = scale.odometry_b_m,
+                            .odometry_why_not = scale.odometry_why_not,
+                            .baseline_units = out.recon.geometry.translation.norm(),
+                            .points_in_a = out.recon.geometry.points_in_cam_a},
+                           scale.options);
+    if (metric.scaled()) ScalePairReconstruction(metric.metres_per_unit, &out.recon);
+  }
+  out.report =
+      MakeEntryReport(out.recon, a, b, camera, options, features_a != nullptr, tries, metric);
   if (!out.recon.success) {
     out.error = out.recon.failure_reason;
     return out;

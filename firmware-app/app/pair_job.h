@@ -3,6 +3,8 @@
 // make the spool entry from it (entry/entry.h). Shared by `monomesh recon` and the daemon's
 // worker.
 
+#include <Eigen/Core>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -10,9 +12,19 @@
 #include "entry/entry.h"
 #include "entry/report.h"
 #include "recon/pipeline.h"
+#include "scale/metric_scale.h"
 #include "session/capture_session.h"
 
 namespace mm {
+
+/// The metric scale asked of a pair job (scale/metric_scale.h): the options (source none:
+/// unscaled) and the odometry's positions at the keyframes' capture times, or why there are none.
+struct PairScaleInputs {
+  ScaleOptions options;
+  std::optional<Eigen::Vector3d> odometry_a_m;
+  std::optional<Eigen::Vector3d> odometry_b_m;
+  std::string odometry_why_not;
+};
 
 struct PairJobResult {
   bool ok = false;
@@ -26,11 +38,13 @@ struct PairJobResult {
 /// `features_a`, when given, are keyframe A's features from ExtractKeyframeFeatures (computed
 /// while the gate waited for B), so only B's are computed here.
 /// `tracks`: the keyframe gate's tracks from A to B (further correspondences); `tries`: the
-/// capture's B tries so far, the last being this B (the report lists them).
+/// capture's B tries so far, the last being this B (the report lists them). `scale`: when a
+/// source scales the pair, the reconstruction, the report and every file are in metres.
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
                          const KeyframeInfo& b, const BouguetCamera& camera,
                          const PairOptions& options, const Features* features_a = nullptr,
                          std::span<const TrackCorrespondence> tracks = {},
-                         std::span<const KeyframeBTry> tries = {});
+                         std::span<const KeyframeBTry> tries = {},
+                         const PairScaleInputs& scale = {});
 
 }  // namespace mm

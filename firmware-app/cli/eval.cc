@@ -45,6 +45,11 @@ struct EvalArgs {
   double timeout_s = CaptureSessionOptions{}.timeout_s;
   bool use_tracks = CaptureEvalOptions{}.use_tracks;
   double worker_latency_s = CaptureEvalOptions{}.worker_latency_s;
+  std::string scale_source = "none";
+  double odom_noise_m = 0.0;
+  unsigned odom_seed = EvalOptions{}.odom_seed;
+  double camera_height_m = 0.0;
+  double camera_pitch_deg = 0.0;
 };
 
 int RunEntryEval(const EvalArgs& args) {
@@ -131,6 +136,15 @@ int RunEval(const EvalArgs& args) {
     return 2;
   }
   options.mesh_figures = true;  // Issue 5: the pair's mesh rendered from A against A's depth.
+  options.scale.source = *ParseScaleSource(args.scale_source);  // CLI11 checked the name.
+  options.scale.camera_height_m = args.camera_height_m;
+  options.scale.camera_pitch_deg = args.camera_pitch_deg;
+  options.odom_noise_m = args.odom_noise_m;
+  options.odom_seed = args.odom_seed;
+  if (const std::string problem = options.scale.Check(); !problem.empty()) {
+    std::cerr << "monomesh eval: --" << problem << "\n";
+    return 2;
+  }
   const EvalResult result = EvaluateTumPairs(args.dataset, camera, options);
   if (!result.ok) {
     std::cerr << "monomesh eval: " << result.failure_reason << "\n";
@@ -204,6 +218,19 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--worker-latency", args->worker_latency_s,
                   "With --captures: fixed reconstruction time in video seconds (default: "
                   "measured)");
+  cmd->add_option("--scale", args->scale_source,
+                  "Metric scale per pair: none, odometry (simulated from the ground truth), "
+                  "floor (needs --camera-height-m) or auto")
+      ->check(CLI::IsMember({"none", "odometry", "floor", "auto"}));
+  cmd->add_option("--odom-noise-m", args->odom_noise_m,
+                  "With --scale odometry|auto: noise per position of the simulated odometry (m)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--odom-seed", args->odom_seed, "Seed of the simulated odometry's noise");
+  cmd->add_option("--camera-height-m", args->camera_height_m,
+                  "With --scale floor|auto: the camera's height above the floor (m)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--camera-pitch-deg", args->camera_pitch_deg,
+                  "With --scale floor|auto: the camera's nominal pitch, down positive (deg)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunEval(*args);
