@@ -100,9 +100,11 @@ TEST(Daemon, KillDuringSpoolWriteLeavesNoPartialEntry) {
   EXPECT_NE(daemon.log().find("incomplete entries left by an earlier crash"), std::string::npos);
 }
 
+// The daemon's exit code; a daemon still running after 60 s is stopped (timeout exits 124).
 int RunDaemonExpectingExit(const fs::path& config, std::string* log) {
   const char* bin = std::getenv("MONOMESHD");
-  const std::string cmd = std::string(bin) + " --config " + config.string() + " 2>&1";
+  const std::string cmd =
+      "timeout -k 5 60 " + std::string(bin) + " --config " + config.string() + " 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   char buf[512];
   while (std::fgets(buf, sizeof(buf), pipe) != nullptr) *log += buf;
@@ -141,6 +143,22 @@ TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78);
   EXPECT_NE(log.find("broken.toml"), std::string::npos) << log;
   EXPECT_NE(log.find("camera.fc"), std::string::npos) << log;
+}
+
+// A calibration's image size above kMaxImageSide is refused at load, naming the file and the
+// field (OpenCV's cv::Exception from the undistortion maps aborted the daemon: SIGABRT, which
+// systemd restarts forever).
+TEST(Daemon, HugeCalibrationImageSizeExits78NamingTheField) {
+  const fs::path calib = fs::temp_directory_path() /
+                         ("mm_huge_calib_" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(calib) << "[camera]\nimage_size = [1000000, 1000000]\nfc = [500, 500]\n"
+                          "cc = [320, 240]\nkc = [0, 0, 0, 0]\n";
+  DaemonProcess daemon("hugecalib", "rate=max", "", kData, "", calib);
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_NE(log.find(calib.string()), std::string::npos) << log;
+  EXPECT_NE(log.find("camera.image_size"), std::string::npos) << log;
+  fs::remove(calib);
 }
 
 TEST(Daemon, MissingGpioChipIsReportedWithTheChip) {
