@@ -9,6 +9,7 @@
 
 #include "calib/undistort.h"
 #include "dataset/tum.h"
+#include "entry/json_text.h"
 #include "recon/epipolar.h"
 
 namespace mm {
@@ -325,7 +326,7 @@ std::string CaptureEvalToJson(const CaptureEvalResult& r) {
                               {"failures", s.failures}}},
                             {"video_s", r.video_s},
                             {"frames", r.frames}};
-  return nlohmann::json{{"captures", captures}, {"summary", summary}}.dump(2) + "\n";
+  return JsonText(nlohmann::json{{"captures", captures}, {"summary", summary}}, 2) + "\n";
 }
 
 }  // namespace mm

@@ -11,6 +11,7 @@
 
 #include "calib/undistort.h"
 #include "dataset/tum.h"
+#include "entry/json_text.h"
 #include "eval/mesh_checks.h"
 
 namespace mm {
@@ -386,7 +387,7 @@ std::string EvalToJson(const EvalResult& result) {
     }
     pairs.push_back(std::move(j));
   }
-  return json{{"summary", summary}, {"pairs", pairs}}.dump(2) + "\n";
+  return JsonText(json{{"summary", summary}, {"pairs", pairs}}, 2) + "\n";
 }
 
 }  // namespace mm

@@ -30,6 +30,7 @@
 #include "capture/capture_thread.h"
 #include "capture/source_uri.h"
 #include "capture/trigger.h"
+#include "entry/json_text.h"
 #include "session/capture_session.h"
 #include "spool/spool.h"
 
@@ -647,7 +648,7 @@ void Daemon::OnClient(int fd) {
       reply = {{"ok", false}, {"error", "unknown command '" + command +
                                             "' (known: trigger, status, ping)"}};
     }
-    const std::string line = reply.dump() + "\n";
+    const std::string line = JsonText(reply) + "\n";
     [[maybe_unused]] const ssize_t w = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
   } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
     return;  // Spurious wake-up; wait for the request.

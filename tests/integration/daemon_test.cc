@@ -145,6 +145,15 @@ TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   EXPECT_NE(log.find("camera.fc"), std::string::npos) << log;
 }
 
+// A copy of the bundled dataset the test may change.
+fs::path CopyOfBundledData(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::copy(kData, dir, fs::copy_options::recursive);
+  return dir;
+}
+
 // A calibration's image size above kMaxImageSide is refused at load, naming the file and the
 // field (OpenCV's cv::Exception from the undistortion maps aborted the daemon: SIGABRT, which
 // systemd restarts forever).
@@ -159,6 +168,55 @@ TEST(Daemon, HugeCalibrationImageSizeExits78NamingTheField) {
   EXPECT_NE(log.find(calib.string()), std::string::npos) << log;
   EXPECT_NE(log.find("camera.image_size"), std::string::npos) << log;
   fs::remove(calib);
+}
+
+// Bytes that are not UTF-8 on the control socket: the reply echoes the command with U+FFFD and
+// is valid JSON; the daemon keeps serving (nlohmann's dump() threw, the daemon exited 70).
+TEST(Daemon, InvalidUtf8CommandIsAnsweredAndTheDaemonKeepsServing) {
+  DaemonProcess daemon("utf8cmd", "rate=realtime&loop=1");
+  daemon.Start();
+  for (const std::string command : {"\xff", "st\xc3" "atus", "\xed\xa0\x80"}) {
+    std::string line;
+    ASSERT_NO_THROW(line = SendControlCommand(daemon.socket(), command, 5s)) << daemon.log();
+    json reply;
+    ASSERT_NO_THROW(reply = json::parse(line)) << line;
+    EXPECT_FALSE(reply.value("ok", true)) << line;
+    EXPECT_NE(reply.value("error", "").find("\xef\xbf\xbd"), std::string::npos) << line;
+  }
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(daemon.Status()["state"], "idle");
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// Frame file names that are not UTF-8 (any byte string is a Linux file name) reach status (the
+// camera's last error, the keyframe's source) and report.json: both stay valid JSON, and the
+// capture's entry is written.
+TEST(Daemon, NonUtf8FrameFileNamesKeepStatusAndReportsWorking) {
+  const fs::path data = CopyOfBundledData("utf8names");
+  std::ifstream list_in(data / "rgb.txt");
+  std::ostringstream list_out;
+  for (std::string line; std::getline(list_in, line);) {
+    const auto slash = line.find("rgb/");
+    if (line.empty() || line[0] == '#' || slash == std::string::npos) {
+      list_out << line << "\n";
+      continue;
+    }
+    const std::string file = line.substr(slash);
+    const std::string renamed = "rgb/\xff\xfe" + file.substr(4);
+    fs::rename(data / file, data / renamed);
+    list_out << line.substr(0, slash) << renamed << "\n";
+  }
+  list_in.close();
+  std::ofstream(data / "rgb.txt") << list_out.str();
+  DaemonProcess daemon("utf8names", "rate=realtime&speed=2&loop=0", "", data);
+  daemon.Start();
+  const json result = daemon.TriggerAndWait(120s);
+  ASSERT_TRUE(result.value("ok", false)) << result.dump() << "\n" << daemon.log();
+  const fs::path entry = result["entry"].get<std::string>();
+  ExpectCompleteEntry(entry);
+  EXPECT_NE(ReadReport(entry).keyframe_a.source.find("\xef\xbf\xbd"), std::string::npos);
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
 }
 
 TEST(Daemon, MissingGpioChipIsReportedWithTheChip) {
@@ -177,15 +235,6 @@ TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
   std::string log;
   EXPECT_NE(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 0);
   EXPECT_NE(log.find("/nonexistent/cam"), std::string::npos) << log;
-}
-
-// A copy of the bundled dataset the test may move away and back.
-fs::path CopyOfBundledData(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::copy(kData, dir, fs::copy_options::recursive);
-  return dir;
 }
 
 // Rotation only (homography warps K R K^-1 of one keyframe, up to 9 deg of yaw, ~90 px of image
