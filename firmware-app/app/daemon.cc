@@ -39,8 +39,10 @@ namespace {
 
 using json = nlohmann::json;
 
-constexpr int kExitSoftware = 70;  // EX_SOFTWARE
-constexpr int kExitUnavailable = 69;  // EX_UNAVAILABLE
+// Exit codes (sysexits.h; docs/exit_codes.md is the table).
+constexpr int kExitUnavailable = 69;  // EX_UNAVAILABLE: a device or the socket is not there yet.
+constexpr int kExitSoftware = 70;     // EX_SOFTWARE: an internal error (a bug).
+constexpr int kExitConfig = 78;       // EX_CONFIG: restarting will not help.
 
 void SignalEventFd(int fd) {
   const uint64_t one = 1;
@@ -85,7 +87,7 @@ class Worker {
   Worker(const DaemonConfig& config, const BouguetCamera& undistorted_camera, Spool* spool,
          int done_fd)
       : config_(config), camera_(undistorted_camera), spool_(spool), done_fd_(done_fd) {
-    thread_ = std::thread([this] { Run(); });
+    thread_ = std::thread([this] { RunGuarded(); });
   }
   ~Worker() {
     {
@@ -115,6 +117,12 @@ class Worker {
     return true;
   }
 
+  /// Set when an exception reached the thread's top (the thread has ended): the daemon exits 70.
+  std::optional<std::string> fatal_error() {
+    std::lock_guard lock(mutex_);
+    return fatal_error_;
+  }
+
   std::optional<JobOutcome> TakeOutcome() {
     std::lock_guard lock(mutex_);
     if (outcomes_.empty()) return std::nullopt;
@@ -124,6 +132,25 @@ class Worker {
   }
 
  private:
+  // An exception leaving a std::thread calls std::terminate (SIGABRT, restarted forever by
+  // systemd): it is caught here, kept for the loop and reported through the done eventfd.
+  void RunGuarded() {
+    std::string fatal;
+    try {
+      Run();
+      return;
+    } catch (const std::exception& e) {
+      fatal = std::string("worker: ") + e.what();
+    } catch (...) {
+      fatal = "worker: unknown exception";
+    }
+    {
+      std::lock_guard lock(mutex_);
+      fatal_error_ = std::move(fatal);
+    }
+    SignalEventFd(done_fd_);
+  }
+
   void Run() {
     for (;;) {
       Job job;
@@ -135,7 +162,15 @@ class Worker {
           PrepareJob prepare = std::move(*prepare_);
           prepare_.reset();
           lock.unlock();
-          Features features = ExtractKeyframeFeatures(prepare.image, config_.recon);
+          Features features;
+          try {
+            features = ExtractKeyframeFeatures(prepare.image, config_.recon);
+          } catch (const std::exception& e) {
+            // Not fatal: Process extracts A's features again and reports its own failure.
+            spdlog::error("capture {}: keyframe A features: {}", prepare.capture_id, e.what());
+            lock.lock();
+            continue;
+          }
           lock.lock();
           features_ = std::move(features);
           features_capture_ = prepare.capture_id;
@@ -217,6 +252,7 @@ class Worker {
   Features features_;            // Keyframe A's, guarded by mutex_.
   uint64_t features_capture_ = 0;  // Whose features_ are; guarded by mutex_.
   std::deque<JobOutcome> outcomes_;  // Guarded by mutex_.
+  std::optional<std::string> fatal_error_;  // Guarded by mutex_.
 };
 
 enum class State { kIdle, kTracking, kReconstructing };
@@ -357,7 +393,7 @@ int Daemon::Run() {
             .on_error = [](const std::string& e) { spdlog::error("camera: {}", e); }});
   } catch (const SourceUriError& e) {
     spdlog::critical("{}", e.what());
-    return 78;  // EX_CONFIG: the URI is part of the configuration.
+    return kExitConfig;  // The URI is part of the configuration.
   }
   if (std::string error = capture_->Start(); !error.empty()) {
     spdlog::critical("camera: {}", error);
@@ -422,6 +458,10 @@ int Daemon::Run() {
         OnGateDone();
       } else if (fd == done_event_.get()) {
         DrainEventFd(fd);
+        if (std::optional<std::string> fatal = worker_->fatal_error()) {
+          spdlog::critical("internal error: {}", *fatal);
+          return kExitSoftware;
+        }
         OnJobDone();
       } else if (fd == timer_fd_.get()) {
         DrainEventFd(fd);
@@ -697,21 +737,26 @@ int RunDaemon(const DaemonConfig& config) {
     camera = LoadCalibration(config.calibration);
   } catch (const CalibrationError& e) {
     spdlog::critical("{}", e.what());
-    return 78;
+    return kExitConfig;
   }
   if (camera.width <= 0) {
     spdlog::critical("{}: image_size is required by the daemon", config.calibration.string());
-    return 78;
+    return kExitConfig;
   }
   if (std::string problem = config.gate.Check(); !problem.empty()) {
     spdlog::critical("config: keyframes.{}", problem);
-    return 78;
+    return kExitConfig;
   }
-  Daemon daemon(config, camera);
+  // The event loop's top: construction too (the undistortion maps are made there, and OpenCV
+  // throws cv::Exception on what it cannot allocate).
   try {
+    Daemon daemon(config, camera);
     return daemon.Run();
   } catch (const std::exception& e) {
     spdlog::critical("internal error: {}", e.what());
+    return kExitSoftware;
+  } catch (...) {
+    spdlog::critical("internal error: unknown exception");
     return kExitSoftware;
   }
 }
