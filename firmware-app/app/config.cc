@@ -1,5 +1,6 @@
 #include "app/config.h"
 
+#include <sys/un.h>
 #include <toml++/toml.h>
 
 #include <fstream>
@@ -123,6 +124,10 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
 
   const auto* control = r.Table("control", {"socket"});
   r.GetPath(control, "control", "socket", c.config_dir, &c.control_socket);
+  r.Require(c.control_socket.string().size() < sizeof(sockaddr_un{}.sun_path), control, "control",
+            "socket",
+            "longer than " + std::to_string(sizeof(sockaddr_un{}.sun_path) - 1) +
+                " bytes (the limit of a UNIX socket address)");
 
   const auto* trigger = r.Table("trigger", {"gpio_chip", "gpio_line", "active_low", "bias",
                                             "debounce_ms"});

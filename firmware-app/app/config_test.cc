@@ -135,5 +135,11 @@ TEST(DaemonConfig, NumbersOutOfRangeAreErrorsNotWrapped) {
   EXPECT_EQ(c.keyframe_timeout_s, 10.0);
 }
 
+TEST(DaemonConfig, SocketPathLongerThanASocketAddressIsAnError) {
+  ExpectError(std::string(kMinimal) + "[control]\nsocket = \"/run/" + std::string(120, 's') +
+                  "\"\n",
+              "control.socket");
+}
+
 }  // namespace
 }  // namespace mm

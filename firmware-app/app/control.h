@@ -16,14 +16,23 @@ class ControlError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The configured path cannot be the control socket (too long, or a file that is not a socket,
+/// which the daemon never deletes): a configuration error, not a passing one.
+class ControlPathError : public ControlError {
+ public:
+  using ControlError::ControlError;
+};
+
 /// The daemon accepted the request but did not answer within the timeout (busy, not gone).
 class ControlTimeout : public ControlError {
  public:
   using ControlError::ControlError;
 };
 
-/// Creates, binds and listens on `path` (non-blocking, close-on-exec). A stale socket file
-/// left by a crashed daemon is replaced; a live daemon on it is an error.
+/// Creates, binds and listens on `path` (non-blocking, close-on-exec). Only a stale socket (a
+/// socket file nobody accepts on: connect refused, left by a crashed daemon) is replaced; a
+/// live daemon on it is a ControlError, and anything at the path that is not a socket is a
+/// ControlPathError and stays untouched.
 /// \throws ControlError naming the path.
 UniqueFd ListenControlSocket(const std::filesystem::path& path);
 

@@ -6,6 +6,7 @@
 #include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/timerfd.h>
 #include <systemd/sd-daemon.h>
 
@@ -307,6 +308,7 @@ class Daemon {
   UniqueFd signal_fd_;
   UniqueFd timer_fd_;
   UniqueFd listen_fd_;
+  std::pair<dev_t, ino_t> socket_id_{};  // The bound socket file's device and inode.
   std::map<int, UniqueFd> clients_;
   std::unique_ptr<CaptureThread> capture_;
   std::vector<std::unique_ptr<Trigger>> triggers_;  // SIGUSR1, the GPIO button when configured.
@@ -403,10 +405,15 @@ int Daemon::Run() {
 
   try {
     listen_fd_ = ListenControlSocket(config_.control_socket);
+  } catch (const ControlPathError& e) {
+    spdlog::critical("{}", e.what());
+    return kExitConfig;
   } catch (const ControlError& e) {
     spdlog::critical("{}", e.what());
     return kExitUnavailable;
   }
+  struct stat bound {};
+  if (::lstat(config_.control_socket.c_str(), &bound) == 0) socket_id_ = {bound.st_dev, bound.st_ino};
   AddFd(listen_fd_.get());
   if (config_.button_enabled) {
     triggers_.push_back(std::make_unique<GpioButton>(config_.button));
@@ -492,7 +499,12 @@ int Daemon::Run() {
   gate_.reset();
   worker_.reset();  // Finishes the job in progress: an entry is committed whole or not at all.
   capture_->Stop();
-  ::unlink(config_.control_socket.c_str());
+  // Only the socket this daemon bound (not a file put there since).
+  struct stat now {};
+  if (::lstat(config_.control_socket.c_str(), &now) == 0 && S_ISSOCK(now.st_mode) &&
+      std::pair(now.st_dev, now.st_ino) == socket_id_) {
+    ::unlink(config_.control_socket.c_str());
+  }
   spdlog::info("stopped");
   return 0;
 }

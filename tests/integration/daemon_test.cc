@@ -170,6 +170,24 @@ TEST(Daemon, HugeCalibrationImageSizeExits78NamingTheField) {
   fs::remove(calib);
 }
 
+// Something at the configured socket path that is not a socket is never deleted: the daemon
+// exits 78 (a config error) naming the path, and the file or folder is as it was.
+TEST(Daemon, SocketPathHoldingAFileOrFolderIsLeftAloneAndExits78) {
+  DaemonProcess daemon("sockfile", "rate=max");
+  std::ofstream(daemon.socket()) << "precious";
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_NE(log.find(daemon.socket().string() + ": exists and is not a socket"),
+            std::string::npos)
+      << log;
+  EXPECT_EQ(ReadAll(daemon.socket()), "precious");
+  fs::remove(daemon.socket());
+  fs::create_directories(daemon.socket() / "inside");
+  log.clear();
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_TRUE(fs::is_directory(daemon.socket() / "inside"));
+}
+
 // Bytes that are not UTF-8 on the control socket: the reply echoes the command with U+FFFD and
 // is valid JSON; the daemon keeps serving (nlohmann's dump() threw, the daemon exited 70).
 TEST(Daemon, InvalidUtf8CommandIsAnsweredAndTheDaemonKeepsServing) {
