@@ -256,6 +256,20 @@ class Worker {
   std::optional<std::string> fatal_error_;  // Guarded by mutex_.
 };
 
+// The control protocol's limits (control.h): one request line per connection.
+constexpr size_t kMaxRequestBytes = 256;   // The longest command is 7 bytes.
+constexpr auto kClientIdleTimeout = std::chrono::seconds(5);  // A held connection is closed.
+constexpr size_t kMaxClients = 32;         // More at once are answered "busy" and closed.
+constexpr auto kAcceptBackoff = std::chrono::milliseconds(200);  // After EMFILE / ENFILE.
+
+// A control-socket client: the request line is collected across reads (a command may arrive in
+// several pieces).
+struct Client {
+  UniqueFd fd;
+  std::string request;
+  std::chrono::steady_clock::time_point last_read;
+};
+
 enum class State { kIdle, kTracking, kReconstructing };
 
 const char* Name(State s) {
@@ -288,7 +302,12 @@ class Daemon {
   void SettleGate();
   void OnJobDone();
   void OnTimer();
+  void OnAccept();
+  void PauseAccept();
   void OnClient(int fd);
+  json Answer(std::string request);
+  void ReplyAndClose(int fd, const json& reply);
+  void CloseClient(int fd);
   json Status();
   void SetState(State s);
   void EndCapture(const std::string& error);
@@ -309,7 +328,11 @@ class Daemon {
   UniqueFd timer_fd_;
   UniqueFd listen_fd_;
   std::pair<dev_t, ino_t> socket_id_{};  // The bound socket file's device and inode.
-  std::map<int, UniqueFd> clients_;
+  std::map<int, Client> clients_;
+  // Accepting paused until then (the fd limit was reached: the pending connection would keep
+  // the listen socket readable and the loop spinning).
+  std::optional<std::chrono::steady_clock::time_point> accept_resume_;
+  bool accept_failing_ = false;  // Logged once until an accept succeeds again.
   std::unique_ptr<CaptureThread> capture_;
   std::vector<std::unique_ptr<Trigger>> triggers_;  // SIGUSR1, the GPIO button when configured.
   std::unique_ptr<Worker> worker_;
@@ -484,12 +507,7 @@ int Daemon::Run() {
           OnTrigger(event.source.c_str(), &reply);
         }
       } else if (fd == listen_fd_.get()) {
-        for (;;) {
-          const int client = ::accept4(fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-          if (client < 0) break;
-          clients_.emplace(client, UniqueFd(client));
-          AddFd(client);
-        }
+        OnAccept();
       } else {
         OnClient(fd);
       }
@@ -679,34 +697,119 @@ void Daemon::OnTimer() {
     sd_notify(0, "WATCHDOG=1");
     last_watchdog_ = now;
   }
+  if (accept_resume_ && now >= *accept_resume_) {
+    accept_resume_.reset();
+    AddFd(listen_fd_.get());
+  }
+  std::vector<int> idle;
+  for (const auto& [fd, client] : clients_) {
+    if (now - client.last_read > kClientIdleTimeout) idle.push_back(fd);
+  }
+  for (int fd : idle) {
+    if (clients_.at(fd).request.empty()) {
+      CloseClient(fd);
+    } else {
+      ReplyAndClose(fd, {{"ok", false},
+                         {"error", "no end of line within " +
+                                       std::to_string(kClientIdleTimeout.count()) + " s"}});
+    }
+  }
+}
+
+void Daemon::OnAccept() {
+  for (;;) {
+    const int client = ::accept4(listen_fd_.get(), nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (client < 0) {
+      if (errno == EINTR || errno == ECONNABORTED) continue;
+      if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
+        PauseAccept();
+      }
+      return;  // EAGAIN: none pending.
+    }
+    UniqueFd fd(client);
+    accept_failing_ = false;
+    if (clients_.size() >= kMaxClients) {
+      const std::string line =
+          JsonText({{"ok", false},
+                    {"error", "busy: " + std::to_string(kMaxClients) + " clients connected"}}) +
+          "\n";
+      [[maybe_unused]] const ssize_t w = ::send(client, line.data(), line.size(), MSG_NOSIGNAL);
+      continue;  // Closed by fd.
+    }
+    AddFd(client);
+    clients_.emplace(client, Client{std::move(fd), {}, std::chrono::steady_clock::now()});
+  }
+}
+
+void Daemon::PauseAccept() {
+  if (!accept_failing_) {
+    spdlog::warn("control socket: accept: {}; accepting again every {} ms until it succeeds",
+                 std::strerror(errno), kAcceptBackoff.count());
+    accept_failing_ = true;
+  }
+  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, listen_fd_.get(), nullptr);
+  accept_resume_ = std::chrono::steady_clock::now() + kAcceptBackoff;
+}
+
+void Daemon::CloseClient(int fd) {
+  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, fd, nullptr);
+  clients_.erase(fd);
+}
+
+void Daemon::ReplyAndClose(int fd, const json& reply) {
+  const std::string line = JsonText(reply) + "\n";
+  [[maybe_unused]] const ssize_t w = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+  CloseClient(fd);
 }
 
 void Daemon::OnClient(int fd) {
+  const auto it = clients_.find(fd);
+  if (it == clients_.end()) return;  // Closed earlier in this batch of events.
+  Client& client = it->second;
   char buf[512];
-  const ssize_t n = ::recv(fd, buf, sizeof(buf) - 1, 0);
-  json reply;
-  if (n > 0) {
-    std::string command(buf, static_cast<size_t>(n));
-    while (!command.empty() && (command.back() == '\n' || command.back() == '\r')) {
-      command.pop_back();
+  for (;;) {
+    const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    if (n > 0) {
+      client.last_read = std::chrono::steady_clock::now();
+      client.request.append(buf, static_cast<size_t>(n));
+      if (const size_t end = client.request.find('\n'); end != std::string::npos) {
+        client.request.resize(end);
+        ReplyAndClose(fd, Answer(std::move(client.request)));
+        return;
+      }
+      if (client.request.size() > kMaxRequestBytes) {
+        ReplyAndClose(fd, {{"ok", false},
+                           {"error", "request longer than " + std::to_string(kMaxRequestBytes) +
+                                         " bytes without an end of line"}});
+        return;
+      }
+      continue;
     }
-    if (command == "trigger") {
-      OnTrigger("control socket", &reply);
-    } else if (command == "status") {
-      reply = Status();
-    } else if (command == "ping") {
-      reply = {{"ok", true}};
-    } else {
-      reply = {{"ok", false}, {"error", "unknown command '" + command +
-                                            "' (known: trigger, status, ping)"}};
+    if (n == 0) {  // The client stopped writing: what came is the whole request.
+      if (client.request.empty()) {
+        CloseClient(fd);
+      } else {
+        ReplyAndClose(fd, Answer(std::move(client.request)));
+      }
+      return;
     }
-    const std::string line = JsonText(reply) + "\n";
-    [[maybe_unused]] const ssize_t w = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
-  } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-    return;  // Spurious wake-up; wait for the request.
+    if (errno == EINTR) continue;
+    if (errno != EAGAIN && errno != EWOULDBLOCK) CloseClient(fd);
+    return;  // EAGAIN: the rest of the line comes later.
   }
-  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, fd, nullptr);
-  clients_.erase(fd);
+}
+
+json Daemon::Answer(std::string request) {
+  if (!request.empty() && request.back() == '\r') request.pop_back();
+  if (request == "trigger") {
+    json reply;
+    OnTrigger("control socket", &reply);
+    return reply;
+  }
+  if (request == "status") return Status();
+  if (request == "ping") return {{"ok", true}};
+  return {{"ok", false},
+          {"error", "unknown command '" + request + "' (known: trigger, status, ping)"}};
 }
 
 json Daemon::Status() {

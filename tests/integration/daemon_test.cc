@@ -1,12 +1,19 @@
 // monomeshd end to end: the bundled TUM keyframes replayed through the virtual camera, a
 // trigger over the control socket, and the spool entry checked against ground truth.
+#include <poll.h>
 #include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/statvfs.h>
+#include <sys/un.h>
 
 #include <Eigen/Geometry>
+#include <cstring>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/unique_fd.h"
 #include "dataset/tum.h"
 #include "tests/integration/daemon_process.h"
 #include "tests/support/rotation_sequence.h"
@@ -234,6 +241,155 @@ TEST(Daemon, NonUtf8FrameFileNamesKeepStatusAndReportsWorking) {
   ExpectCompleteEntry(entry);
   EXPECT_NE(ReadReport(entry).keyframe_a.source.find("\xef\xbf\xbd"), std::string::npos);
   EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// A raw control-socket connection (the tests below write in pieces and hold connections).
+UniqueFd ConnectRaw(const fs::path& socket) {
+  UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, socket.c_str(), sizeof(addr.sun_path) - 1);
+  if (::connect(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+    return UniqueFd();
+  }
+  return fd;
+}
+
+void SendRaw(int fd, const std::string& bytes) {
+  ASSERT_EQ(::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL),
+            static_cast<ssize_t>(bytes.size()));
+}
+
+// What the daemon sends until it closes the connection or `timeout` passes; *closed says which.
+std::string ReadUntilClosed(int fd, std::chrono::milliseconds timeout, bool* closed) {
+  std::string got;
+  *closed = false;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  char buf[4096];
+  while (std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(left.count(), 1))) <= 0) continue;
+    const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    if (n <= 0) {
+      *closed = true;
+      break;
+    }
+    got.append(buf, static_cast<size_t>(n));
+  }
+  return got;
+}
+
+// The control protocol per client: a command split across writes is one command; a request
+// without an end of line is bounded in length and in time.
+TEST(Daemon, ControlRequestsAreLineBufferedBoundedAndTimedOut) {
+  DaemonProcess daemon("ctlproto", "rate=realtime&loop=1");
+  daemon.Start();
+  {
+    UniqueFd c = ConnectRaw(daemon.socket());
+    ASSERT_TRUE(c.valid());
+    SendRaw(c.get(), "sta");
+    std::this_thread::sleep_for(200ms);
+    SendRaw(c.get(), "tus\n");
+    bool closed = false;
+    const std::string reply = ReadUntilClosed(c.get(), 5s, &closed);
+    EXPECT_TRUE(closed);
+    const json j = json::parse(reply, nullptr, false);
+    EXPECT_TRUE(j.value("ok", false)) << reply;
+    EXPECT_EQ(j.value("state", ""), "idle") << reply;
+  }
+  {
+    UniqueFd c = ConnectRaw(daemon.socket());
+    ASSERT_TRUE(c.valid());
+    SendRaw(c.get(), std::string(4096, 'x'));
+    bool closed = false;
+    const std::string reply = ReadUntilClosed(c.get(), 5s, &closed);
+    EXPECT_TRUE(closed);
+    EXPECT_NE(reply.find("longer than"), std::string::npos) << reply;
+  }
+  {
+    // An idle client is closed after the idle timeout (5 s), one with half a line too.
+    UniqueFd idle = ConnectRaw(daemon.socket());
+    UniqueFd half = ConnectRaw(daemon.socket());
+    ASSERT_TRUE(idle.valid() && half.valid());
+    SendRaw(half.get(), "pi");
+    bool closed = false;
+    ReadUntilClosed(idle.get(), 8s, &closed);
+    EXPECT_TRUE(closed) << "an idle client was held beyond the timeout";
+    const std::string reply = ReadUntilClosed(half.get(), 2s, &closed);
+    EXPECT_TRUE(closed);
+    EXPECT_NE(reply.find("no end of line"), std::string::npos) << reply;
+  }
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// More clients than the cap are answered "busy" and closed; the held ones time out and the
+// daemon serves again.
+TEST(Daemon, ClientsBeyondTheCapAreRefused) {
+  DaemonProcess daemon("ctlcap", "rate=realtime&loop=1");
+  daemon.Start();
+  std::vector<UniqueFd> held;
+  for (int i = 0; i < 48; ++i) held.push_back(ConnectRaw(daemon.socket()));
+  int busy = 0;
+  for (const UniqueFd& c : held) {
+    ASSERT_TRUE(c.valid());
+    pollfd p{c.get(), POLLIN, 0};
+    if (::poll(&p, 1, 50) <= 0) continue;
+    char buf[256];
+    const ssize_t n = ::recv(c.get(), buf, sizeof(buf), 0);
+    if (n > 0 && std::string(buf, static_cast<size_t>(n)).find("busy") != std::string::npos) ++busy;
+  }
+  EXPECT_GE(busy, 48 - 32);
+  held.clear();
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// CPU seconds the process's main thread (the event loop) has used.
+double LoopCpuSeconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::istringstream fields(stat.substr(stat.rfind(')') + 2));
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> field; ++i) {
+    if (i == 14 || i == 15) ticks += std::stod(field);  // utime, stime.
+  }
+  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+// At the fd limit accept() fails with EMFILE while the connection stays pending: the loop
+// backs off instead of spinning (it spun at 92 % CPU), and serves again once fds are free.
+TEST(Daemon, FdLimitOnAcceptBacksOffWithoutSpinning) {
+  DaemonProcess daemon("emfile", "rate=realtime&loop=1");
+  daemon.Start();
+  const fs::path fd_dir = "/proc/" + std::to_string(daemon.pid()) + "/fd";
+  const auto open_fds = std::distance(fs::directory_iterator(fd_dir), fs::directory_iterator());
+  rlimit normal{};
+  ASSERT_EQ(::prlimit(daemon.pid(), RLIMIT_NOFILE, nullptr, &normal), 0) << std::strerror(errno);
+  const rlimit limit{static_cast<rlim_t>(open_fds + 2), normal.rlim_max};
+  ASSERT_EQ(::prlimit(daemon.pid(), RLIMIT_NOFILE, &limit, nullptr), 0) << std::strerror(errno);
+  std::vector<UniqueFd> clients;
+  for (int i = 0; i < 6; ++i) clients.push_back(ConnectRaw(daemon.socket()));
+  std::this_thread::sleep_for(300ms);
+  const double cpu_before = LoopCpuSeconds(daemon.pid());
+  std::this_thread::sleep_for(2s);
+  const double cpu = LoopCpuSeconds(daemon.pid()) - cpu_before;
+  EXPECT_LT(cpu, 0.4) << "the event loop used " << cpu << " s of CPU in 2 s at the fd limit";
+  clients.clear();
+  ASSERT_EQ(::prlimit(daemon.pid(), RLIMIT_NOFILE, &normal, nullptr), 0) << std::strerror(errno);
+  bool answered = false;
+  for (int i = 0; i < 50 && !answered; ++i) {
+    try {
+      answered = daemon.Command("ping").value("ok", false);
+    } catch (const ControlError&) {
+      std::this_thread::sleep_for(100ms);
+    }
+  }
+  EXPECT_TRUE(answered) << daemon.log();
   EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
 }
 
