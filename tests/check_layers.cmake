@@ -5,10 +5,11 @@
 #     no evaluation code (those live in entry/ and eval/).
 # The link-level rule is mm_forbid_link in the top CMakeLists.txt.
 cmake_policy(SET CMP0007 NEW)
-set(all_layers "base/|dataset/|calib/|spool/|recon/|render/|session/|entry/|eval/|synth/|capture/|app/|cli/")
+set(all_layers "base/|scale/|dataset/|calib/|spool/|recon/|render/|session/|entry/|eval/|synth/|capture/|app/|cli/")
 # folder : the folders it may include (besides itself)
 set(rules
   "base:"
+  "scale:base/"
   "dataset:base/"
   "calib:base/"
   "spool:base/"

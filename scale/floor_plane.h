@@ -1,0 +1,53 @@
+#pragma once
+// The floor among a reconstruction's points: a RANSAC plane (Fischler & Bolles 1981) whose
+// normal is near the expected up direction and which lies below the camera, refitted to its
+// inliers by least squares (the smallest singular vector of the centred inliers). The distance
+// from the camera centre to it, in reconstruction units, against the camera's known height in
+// metres, gives the scale.
+//
+// Thread-safety: pure.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <span>
+#include <string>
+
+namespace mm {
+
+struct FloorPlaneOptions {
+  /// Largest angle between the plane's normal and the expected up direction (degrees): the
+  /// mount's pitch is known to this much.
+  double max_normal_deg = 15.0;
+  /// Inlier band: a point is on the plane when its distance is below this fraction of the
+  /// plane's distance from the camera (scale-free: the reconstruction's units are arbitrary).
+  double inlier_distance_rel = 0.02;
+  int min_inliers = 30;
+  /// Of the horizontal planes with at least this fraction of the best one's support, the
+  /// lowest is the floor (a table top can have more points in view than the floor below it).
+  double lower_plane_support = 0.5;
+  int iterations = 500;
+  uint32_t seed = 1;
+};
+
+struct FloorPlane {
+  bool found = false;
+  std::string why_not;                 ///< When not found.
+  /// n . X + d = 0 in camera A's frame, n unit and pointing up (towards the camera), d > 0:
+  /// the camera centre's distance from the plane in reconstruction units.
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  double distance = 0.0;
+  int inliers = 0;
+  double rms_residual = 0.0;           ///< Of the inliers, in reconstruction units.
+  double normal_angle_deg = 0.0;       ///< Between the normal and the expected up direction.
+};
+
+/// `points_in_cam`: reconstructed points in the camera's frame (x right, y down, z forward);
+/// `up_in_cam`: the expected up direction in that frame (e.g. UpInCamera(pitch)).
+FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
+                         const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options = {});
+
+/// World up in the frame of a camera pitched down by `pitch_down_deg` about its x axis (no
+/// roll): (0, -cos p, -sin p); a level camera's up is -y.
+Eigen::Vector3d UpInCamera(double pitch_down_deg);
+
+}  // namespace mm

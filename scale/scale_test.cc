@@ -1,0 +1,193 @@
+// The scale sources on synthetic data with known answers: the odometry line protocol and its
+// interpolation, the floor plane among a room's points (walls and a table top included), and
+// the choice between the sources.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "scale/floor_plane.h"
+#include "scale/metric_scale.h"
+#include "scale/odometry.h"
+
+namespace mm {
+namespace {
+
+TEST(OdometryLine, ParsesPositionAndNormalisesTheQuaternion) {
+  std::string error;
+  const auto p = ParseOdometryLine("12.5 1 -2.25 +0.5", &error);
+  ASSERT_TRUE(p) << error;
+  EXPECT_DOUBLE_EQ(p->time_s, 12.5);
+  EXPECT_EQ(p->position_m, Eigen::Vector3d(1, -2.25, 0.5));
+  EXPECT_FALSE(p->orientation);
+  const auto q = ParseOdometryLine(" 1 0 0 0  0 0 0 2\r\n", &error);
+  ASSERT_TRUE(q && q->orientation) << error;
+  EXPECT_NEAR(q->orientation->w(), 1.0, 1e-12);
+}
+
+TEST(OdometryLine, NamesTheFieldThatIsWrong) {
+  std::string error;
+  EXPECT_FALSE(ParseOdometryLine("1 2 3", &error));
+  EXPECT_NE(error.find("Z is missing"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("1 2 nan 4", &error));
+  EXPECT_NE(error.find("Y is not a finite number"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("1e400 2 3 4", &error));
+  EXPECT_NE(error.find("T is not"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("1 2 3 4x", &error));
+  EXPECT_NE(error.find("Z is not"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("1 2 3 4 0 0", &error));
+  EXPECT_NE(error.find("quaternion needs all"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("1 2 3 4 0 0 0 0", &error));
+  EXPECT_NE(error.find("zero norm"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("1 2 3 4 0 0 0 1 9", &error));
+  EXPECT_NE(error.find("more than 8"), std::string::npos) << error;
+  EXPECT_FALSE(ParseOdometryLine("", &error));
+  EXPECT_NE(error.find("T is missing"), std::string::npos) << error;
+}
+
+OdometrySample Sample(double time_s, double x_m) {
+  OdometrySample s;
+  s.time_s = time_s;
+  s.position_m = Eigen::Vector3d(x_m, 0, 0);
+  return s;
+}
+
+TEST(OdometryTrack, InterpolatesBetweenNeighboursInAnyArrivalOrder) {
+  OdometryTrack track;
+  // A robot driving at 0.4 m/s along x, samples every 0.1 s arriving out of order.
+  for (int i : {0, 2, 1, 4, 3, 5}) track.Add(Sample(10.0 + 0.1 * i, 0.04 * i));
+  EXPECT_EQ(track.size(), 6u);
+  std::string why;
+  const auto at = track.PositionAt(10.25, {}, &why);
+  ASSERT_TRUE(at) << why;
+  EXPECT_NEAR(at->x(), 0.1, 1e-12);
+  // Held within max_age_s past either end, refused beyond.
+  ASSERT_TRUE(track.PositionAt(10.9, {.max_age_s = 0.5}, &why));
+  EXPECT_FALSE(track.PositionAt(11.1, {.max_age_s = 0.5}, &why));
+  EXPECT_NE(why.find("0.600 s from the keyframe"), std::string::npos) << why;
+  // A gap in the stream does not bracket.
+  track.Add(Sample(20.0, 9.0));
+  EXPECT_FALSE(track.PositionAt(15.0, {.max_age_s = 0.5, .max_gap_s = 1.0}, &why));
+  EXPECT_NE(why.find("gap of"), std::string::npos) << why;
+  // A sample at an existing time replaces it; the capacity drops the oldest.
+  OdometryTrack small(3);
+  for (int i = 0; i < 5; ++i) small.Add(Sample(1.0 * i, 1.0 * i));
+  small.Add(Sample(4.0, 7.0));
+  EXPECT_EQ(small.size(), 3u);
+  EXPECT_EQ(small.newest().position_m.x(), 7.0);
+  EXPECT_FALSE(small.PositionAt(0.0, {.max_age_s = 0.5}, &why));
+  EXPECT_FALSE(OdometryTrack().PositionAt(0.0, {}, &why));
+  EXPECT_EQ(why, "no odometry received");
+}
+
+// A room seen from a camera `height_m` above the floor, pitched down `pitch_deg`: floor points,
+// a table top 0.75 m above the floor with more points than the floor, two walls; in units of
+// `metres_per_unit`, in the camera's frame, with noise of `noise_m`.
+std::vector<Eigen::Vector3d> Room(double height_m, double pitch_deg, double metres_per_unit,
+                                  double noise_m, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::normal_distribution<double> noise(0.0, noise_m);
+  // World: x right, y up, z forward; camera at (0, height, 0).
+  std::vector<Eigen::Vector3d> world;
+  for (int i = 0; i < 200; ++i) world.emplace_back(1.5 * u(rng), 0.0, 3.0 + 1.5 * u(rng));  // Floor.
+  for (int i = 0; i < 300; ++i) world.emplace_back(0.4 * u(rng) + 0.3, 0.75, 2.0 + 0.3 * u(rng));  // Table.
+  for (int i = 0; i < 300; ++i) world.emplace_back(-1.6, 1.2 + u(rng), 3.0 + u(rng));  // Walls.
+  for (int i = 0; i < 300; ++i) world.emplace_back(u(rng), 1.2 + u(rng), 5.0);
+  const double p = pitch_deg * M_PI / 180.0;
+  // Camera frame: x right, y down, z forward; pitched down by p about x.
+  const Eigen::Matrix3d cam_from_level =
+      Eigen::AngleAxisd(p, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  std::vector<Eigen::Vector3d> cam;
+  for (const Eigen::Vector3d& w : world) {
+    const Eigen::Vector3d noisy = w + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    const Eigen::Vector3d level(noisy.x(), height_m - noisy.y(), noisy.z());
+    cam.push_back(cam_from_level * level / metres_per_unit);
+  }
+  return cam;
+}
+
+TEST(FloorPlane, FindsTheFloorBelowATableTopWithMorePoints) {
+  const double height = 1.2, pitch = 12.0, mpu = 0.35;
+  const std::vector<Eigen::Vector3d> points = Room(height, pitch, mpu, 0.005, 7);
+  // The level frame's up is exact for the room; tell the fit the nominal pitch only to 3 deg.
+  const FloorPlane floor = FitFloorPlane(points, UpInCamera(pitch + 3.0));
+  ASSERT_TRUE(floor.found) << floor.why_not;
+  EXPECT_NEAR(floor.distance * mpu, height, 0.01 * height);
+  EXPECT_NEAR(floor.normal_angle_deg, 3.0, 0.5);
+  EXPECT_GE(floor.inliers, 180);
+  EXPECT_LE(floor.inliers, 220);
+  // The pitch says the camera looks down: UpInCamera is the frame's -y tilted towards -z.
+  EXPECT_NEAR(UpInCamera(90.0).z(), -1.0, 1e-12);
+}
+
+TEST(FloorPlane, NoHorizontalPlaneBelowTheCameraIsReported) {
+  std::vector<Eigen::Vector3d> walls = Room(1.2, 0.0, 1.0, 0.002, 3);
+  walls.erase(walls.begin(), walls.begin() + 500);  // Walls only.
+  const FloorPlane floor = FitFloorPlane(walls, UpInCamera(0.0));
+  EXPECT_FALSE(floor.found);
+  EXPECT_NE(floor.why_not.find("no horizontal plane"), std::string::npos) << floor.why_not;
+  EXPECT_FALSE(FitFloorPlane(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d::Zero()), UpInCamera(0)).found);
+}
+
+TEST(MetricScale, OdometryGivesTheBaselineInMetres) {
+  ScaleOptions options;
+  options.source = ScaleSource::kOdometry;
+  ScaleInputs in;
+  in.odometry_a_m = Eigen::Vector3d(1, 2, 0);
+  in.odometry_b_m = Eigen::Vector3d(1.3, 2.4, 0);
+  in.baseline_units = 2.0;
+  const ScaleEstimate s = EstimateScale(in, options);
+  ASSERT_TRUE(s.scaled()) << s.why_not;
+  EXPECT_EQ(s.source, ScaleSource::kOdometry);
+  EXPECT_NEAR(s.metres_per_unit, 0.25, 1e-12);
+  EXPECT_NEAR(s.uncertainty_rel, std::sqrt(2.0) * 0.01 / 0.5, 1e-12);
+
+  in.odometry_b_m = Eigen::Vector3d(1.02, 2, 0);
+  const ScaleEstimate short_baseline = EstimateScale(in, options);
+  EXPECT_FALSE(short_baseline.scaled());
+  EXPECT_NE(short_baseline.why_not.find("min_baseline_m"), std::string::npos);
+  EXPECT_EQ(short_baseline.metres_per_unit, 1.0);
+}
+
+TEST(MetricScale, AutoFallsBackToTheFloorAndRefusesWhenTheSourcesDisagree) {
+  const double height = 1.1, mpu = 0.3;
+  const std::vector<Eigen::Vector3d> points = Room(height, 5.0, mpu, 0.004, 11);
+  ScaleOptions options;
+  options.source = ScaleSource::kAuto;
+  options.camera_height_m = height;
+  options.camera_pitch_deg = 5.0;
+  ScaleInputs in;
+  in.points_in_a = points;
+  in.baseline_units = 1.0;
+  in.odometry_why_not = "the nearest odometry is 3.000 s from the keyframe";
+  const ScaleEstimate floor = EstimateScale(in, options);
+  ASSERT_TRUE(floor.scaled()) << floor.why_not;
+  EXPECT_EQ(floor.source, ScaleSource::kFloor);
+  EXPECT_NEAR(floor.metres_per_unit, mpu, 0.01 * mpu);
+  EXPECT_NE(floor.why_not.find("odometry: the nearest odometry is 3.000 s"), std::string::npos);
+
+  // Odometry that agrees wins; one 30 % off leaves the pair unscaled, saying why.
+  in.odometry_a_m = Eigen::Vector3d::Zero();
+  in.odometry_b_m = Eigen::Vector3d(0.0, 0.0, 1.01 * mpu);
+  const ScaleEstimate both = EstimateScale(in, options);
+  EXPECT_EQ(both.source, ScaleSource::kOdometry);
+  EXPECT_NEAR(both.floor_metres_per_unit, mpu, 0.01 * mpu);
+  in.odometry_b_m = Eigen::Vector3d(0.0, 0.0, 1.3 * mpu);
+  const ScaleEstimate disagree = EstimateScale(in, options);
+  EXPECT_FALSE(disagree.scaled());
+  EXPECT_NE(disagree.why_not.find("disagree by 2"), std::string::npos) << disagree.why_not;
+
+  options.source = ScaleSource::kNone;
+  EXPECT_FALSE(EstimateScale(in, options).scaled());
+  options.source = ScaleSource::kFloor;
+  options.camera_height_m = 0.0;
+  EXPECT_NE(options.Check().find("camera_height_m"), std::string::npos);
+  EXPECT_EQ(ParseScaleSource("auto"), ScaleSource::kAuto);
+  EXPECT_FALSE(ParseScaleSource("metres"));
+}
+
+}  // namespace
+}  // namespace mm
