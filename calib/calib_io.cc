@@ -1,12 +1,13 @@
 #include "calib/calib_io.h"
 
-#include "calib/calib_results_m.h"
-
 #include <toml++/toml.h>
 
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+
+#include "base/checked_number.h"
+#include "calib/calib_results_m.h"
 
 namespace mm {
 namespace {
@@ -19,10 +20,19 @@ namespace {
   throw CalibrationError(msg);
 }
 
-// Reads an array of numbers of one of the allowed lengths.
-std::vector<double> ReadNumbers(const toml::table& table, const std::string& source,
-                                const std::string& prefix, const char* key,
-                                std::initializer_list<size_t> lengths, bool required) {
+// What each field may hold (base/checked_number.h): magnitudes far beyond any real camera
+// but finite, so nothing absurd reaches the camera model or OpenCV's undistortion maps.
+constexpr NumberRange<int> kImageSide{1, kMaxImageSide};
+constexpr NumberRange<double> kPixels{-1e6, 1e6};        // fc, cc
+constexpr NumberRange<double> kCoefficient{-1e6, 1e6};   // kc, alpha_c
+constexpr NumberRange<double> kUncertainty{0.0, 1e6};    // [camera.error]
+
+// Reads an array of numbers of one of the allowed lengths, each within `range`.
+template <typename T>
+std::vector<T> ReadNumbers(const toml::table& table, const std::string& source,
+                           const std::string& prefix, const char* key,
+                           std::initializer_list<size_t> lengths, NumberRange<T> range,
+                           bool required) {
   const std::string field = prefix + key;
   const toml::node* node = table.get(key);
   if (node == nullptr) {
@@ -31,10 +41,11 @@ std::vector<double> ReadNumbers(const toml::table& table, const std::string& sou
   }
   const toml::array* arr = node->as_array();
   if (arr == nullptr) Fail(source, &node->source(), field, "expected an array of numbers");
-  std::vector<double> values;
+  std::vector<T> values;
   for (const toml::node& element : *arr) {
-    const auto v = element.value<double>();
-    if (!v) Fail(source, &element.source(), field, "expected a number");
+    std::string problem;
+    const std::optional<T> v = CheckedNumberOf<T>(element, range, &problem);
+    if (!v) Fail(source, &element.source(), field, problem);
     values.push_back(*v);
   }
   bool ok = false;
@@ -51,11 +62,12 @@ std::vector<double> ReadNumbers(const toml::table& table, const std::string& sou
 }
 
 double ReadNumber(const toml::table& table, const std::string& source, const std::string& prefix,
-                  const char* key, double fallback) {
+                  const char* key, NumberRange<double> range, double fallback) {
   const toml::node* node = table.get(key);
   if (node == nullptr) return fallback;
-  const auto v = node->value<double>();
-  if (!v) Fail(source, &node->source(), prefix + key, "expected a number");
+  std::string problem;
+  const std::optional<double> v = CheckedNumberOf<double>(*node, range, &problem);
+  if (!v) Fail(source, &node->source(), prefix + key, problem);
   return *v;
 }
 
@@ -88,32 +100,27 @@ BouguetCamera ParseCalibrationToml(const std::string& text, const std::string& s
 
   BouguetCamera camera;
   const std::string p = "camera.";
-  const auto size = ReadNumbers(*cam, source_name, p, "image_size", {2}, true);
-  const auto fc = ReadNumbers(*cam, source_name, p, "fc", {2}, true);
-  const auto cc = ReadNumbers(*cam, source_name, p, "cc", {2}, true);
-  const auto kc = ReadNumbers(*cam, source_name, p, "kc", {4, 5}, true);
-  camera.width = static_cast<int>(size[0]);
-  camera.height = static_cast<int>(size[1]);
-  if (size[0] != camera.width || size[1] != camera.height || camera.width <= 0 ||
-      camera.height <= 0) {
-    Fail(source_name, &cam->get("image_size")->source(), p + "image_size",
-         "expected two positive integers");
-  }
+  const auto size = ReadNumbers(*cam, source_name, p, "image_size", {2}, kImageSide, true);
+  const auto fc = ReadNumbers(*cam, source_name, p, "fc", {2}, kPixels, true);
+  const auto cc = ReadNumbers(*cam, source_name, p, "cc", {2}, kPixels, true);
+  const auto kc = ReadNumbers(*cam, source_name, p, "kc", {4, 5}, kCoefficient, true);
+  camera.width = size[0];
+  camera.height = size[1];
   camera.fc = {fc[0], fc[1]};
   camera.cc = {cc[0], cc[1]};
   camera.kc = ToKc(kc);
-  camera.alpha_c = ReadNumber(*cam, source_name, p, "alpha_c", 0.0);
+  camera.alpha_c = ReadNumber(*cam, source_name, p, "alpha_c", kCoefficient, 0.0);
 
   if (const toml::table* err = (*cam)["error"].as_table()) {
     const std::string pe = p + "error.";
     BouguetCamera::Uncertainty u;
-    const auto efc = ReadNumbers(*err, source_name, pe, "fc", {2}, true);
-    const auto ecc = ReadNumbers(*err, source_name, pe, "cc", {2}, true);
-    const auto ekc = ReadNumbers(*err, source_name, pe, "kc", {4, 5}, true);
+    const auto efc = ReadNumbers(*err, source_name, pe, "fc", {2}, kUncertainty, true);
+    const auto ecc = ReadNumbers(*err, source_name, pe, "cc", {2}, kUncertainty, true);
+    const auto ekc = ReadNumbers(*err, source_name, pe, "kc", {4, 5}, kUncertainty, true);
     u.fc = {efc[0], efc[1]};
     u.cc = {ecc[0], ecc[1]};
     u.kc = ToKc(ekc);
-    u.alpha_c = ReadNumber(*err, source_name, pe, "alpha_c", 0.0);
+    u.alpha_c = ReadNumber(*err, source_name, pe, "alpha_c", kUncertainty, 0.0);
     camera.error = u;
   }
 

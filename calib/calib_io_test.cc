@@ -65,6 +65,34 @@ TEST(CalibIo, ErrorsNameTheField) {
   ExpectErrorMentions("[other]\n", "[camera]");
 }
 
+// Every number through one checked conversion: image sizes that would make OpenCV throw (or
+// wrap through a cast to int), non-finite and absurd values are errors naming the field.
+TEST(CalibIo, NumbersOutOfRangeNameTheField) {
+  const std::string rest = "fc=[500,500]\ncc=[320,240]\nkc=[0,0,0,0]\n";
+  ExpectErrorMentions("[camera]\nimage_size=[1000000,1000000]\n" + rest,
+                      "field 'camera.image_size': expected an integer in [1, 16384]");
+  ExpectErrorMentions("[camera]\nimage_size=[4294967936,480]\n" + rest, "camera.image_size");
+  ExpectErrorMentions("[camera]\nimage_size=[640.5,480]\n" + rest, "camera.image_size");
+  ExpectErrorMentions("[camera]\nimage_size=[0,480]\n" + rest, "camera.image_size");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[inf,500]\ncc=[320,240]\n"
+                      "kc=[0,0,0,0]\n",
+                      "camera.fc");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[500,500]\ncc=[1e300,240]\n"
+                      "kc=[0,0,0,0]\n",
+                      "camera.cc");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\n" + rest + "alpha_c = nan\n",
+                      "camera.alpha_c");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[500,500]\ncc=[320,240]\n"
+                      "kc=[0,0,-inf,0]\n",
+                      "camera.kc");
+  ExpectErrorMentions("[camera]\nimage_size=[640,480]\n" + rest +
+                          "[camera.error]\nfc=[1,1]\ncc=[1,1]\nkc=[0,0,0,nan]\n",
+                      "camera.error.kc");
+  ExpectErrorMentions("[camera]\nimage_size=[640,\"480\"]\n" + rest, "wrong type");
+  EXPECT_EQ(ParseCalibrationToml("[camera]\nimage_size=[16384,16384]\n" + rest, "cam.toml").width,
+            16384);
+}
+
 TEST(CalibIo, MissingFileNamesPath) {
   try {
     LoadCalibration("/nonexistent/calib.toml");

@@ -7,6 +7,7 @@
 #include <map>
 #include <sstream>
 
+#include "base/checked_number.h"
 #include "calib/calib_io.h"
 
 namespace mm {
@@ -174,11 +175,10 @@ class Reader {
   std::optional<int> Int(const std::string& name, int lo, int hi, bool required) const {
     const auto v = Scalar(name, required);
     if (!v) return std::nullopt;
-    if (!(*v >= lo && *v <= hi) || std::floor(*v) != *v) {
-      Fail(source_, Find(name)->line, name,
-           "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    }
-    return static_cast<int>(*v);
+    std::string problem;
+    const std::optional<int> i = CheckedNumber<int>(*v, {lo, hi}, &problem);
+    if (!i) Fail(source_, Find(name)->line, name, problem);
+    return i;
   }
 
   int Line(const std::string& name) const {
@@ -250,8 +250,8 @@ CalibResults ParseCalibResultsM(const std::string& text, const std::string& sour
   cam.cc = {cc[0], cc[1]};
   cam.kc = ToKc(kc);
   cam.alpha_c = r.Scalar("alpha_c", false).value_or(0.0);
-  cam.width = *r.Int("nx", 1, 1 << 20, true);
-  cam.height = *r.Int("ny", 1, 1 << 20, true);
+  cam.width = *r.Int("nx", 1, kMaxImageSide, true);
+  cam.height = *r.Int("ny", 1, kMaxImageSide, true);
 
   if (r.Find("fc_error") || r.Find("cc_error") || r.Find("kc_error")) {
     BouguetCamera::Uncertainty e;

@@ -83,6 +83,9 @@ TEST(CalibResultsM, ErrorsNameFileLineAndField) {
   ExpectError("fc = [1;2];\ncc = [1;2];\nkc = [0;0;0;0;0];\n", "field 'nx': missing");
   ExpectError("fc = [1;2];\ncc = [1;2];\nkc = [0;0;0;0;0];\nnx = 640.5;\nny = 480;\n",
               "bad.m:4: field 'nx'");
+  // Above kMaxImageSide (OpenCV's undistortion maps of it threw from the daemon).
+  ExpectError("fc = [1;2];\ncc = [1;2];\nkc = [0;0;0;0;0];\nnx = 1000000;\nny = 480;\n",
+              "bad.m:4: field 'nx': expected an integer in [1, 16384]");
   ExpectError("fc = [1;x2];\ncc = [1;2];\nkc = [0;0;0;0;0];\n" + base,
               "bad.m:1: field 'fc': 'x2' is not a number");
   ExpectError("fc = [1;2\ncc = [1;2];\n", "field 'fc'");

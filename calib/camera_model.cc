@@ -163,6 +163,9 @@ std::string BouguetCamera::Check() const {
     if (!std::isfinite(k)) return "kc: coefficients must be finite";
   }
   if (width < 0 || height < 0) return "image_size: must be non-negative";
+  if (width > kMaxImageSide || height > kMaxImageSide) {
+    return "image_size: must be at most " + std::to_string(kMaxImageSide) + " px per side";
+  }
   return {};
 }
 

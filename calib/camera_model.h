@@ -37,6 +37,11 @@ void ProjectBouguet(const T* intrinsics, const T* point_in_cam, T* pixel) {
   pixel[1] = intrinsics[1] * yd + intrinsics[3];
 }
 
+/// The largest image side a calibration may give, pixels: above any camera the appliance
+/// drives, and the undistortion maps of a 16384 x 16384 image still fit in memory (a
+/// calibration of 10^6 px per side made OpenCV throw from the daemon's constructor).
+inline constexpr int kMaxImageSide = 16384;
+
 /// Intrinsics in the toolbox's parameterization, plus the image size they belong to.
 struct BouguetCamera {
   Eigen::Vector2d fc{1.0, 1.0};  ///< Focal lengths, pixels.

@@ -26,7 +26,16 @@ void CaptureThread::Run() {
   while (!stop_) {
     auto frame = std::make_shared<Frame>();
     std::string error;
-    const ReadStatus status = source_->Read(frame.get(), 100ms, &error);
+    ReadStatus status = ReadStatus::kError;
+    // An exception leaving the thread would call std::terminate: one a source throws while
+    // reading (a decoder's, OpenCV's on a corrupt or huge image) is that read's error.
+    try {
+      status = source_->Read(frame.get(), 100ms, &error);
+    } catch (const std::exception& e) {
+      error = Describe() + ": " + e.what();
+    } catch (...) {
+      error = Describe() + ": unknown exception while reading a frame";
+    }
     if (status == ReadStatus::kTimeout) continue;
     if (status == ReadStatus::kEndOfStream) {
       std::lock_guard lock(mutex_);

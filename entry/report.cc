@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+#include "entry/json_text.h"
+
 namespace mm {
 namespace {
 
@@ -395,6 +397,6 @@ std::string BriefReport(const EntryReport& r) {
   return out;
 }
 
-std::string FormatEntryReport(const EntryReport& report) { return ToJson(report).dump(2) + "\n"; }
+std::string FormatEntryReport(const EntryReport& report) { return JsonText(ToJson(report), 2) + "\n"; }
 
 }  // namespace mm

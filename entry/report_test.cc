@@ -87,6 +87,21 @@ TEST(EntryReport, RoundTripsThroughJson) {
   EXPECT_EQ(back.counts.gate_track_inliers, 140);
 }
 
+// A frame file name that is not UTF-8 (any byte string is a valid Linux name) made dump()
+// throw, so every capture's report failed: it is written with U+FFFD and reads back.
+TEST(EntryReport, NonUtf8FrameNameIsWrittenAsValidJson) {
+  EntryReport r = Filled();
+  r.keyframe_a.source = "rgb/\xff\xfe-a.png";
+  r.failure_reason = "bad \xc3";  // A truncated two-byte sequence.
+  std::string text;
+  ASSERT_NO_THROW(text = FormatEntryReport(r));
+  EntryReport back;
+  ASSERT_EQ(FromJson(json::parse(text), &back), "");
+  EXPECT_EQ(back.keyframe_a.source, "rgb/\xef\xbf\xbd\xef\xbf\xbd-a.png");  // U+FFFD twice.
+  EXPECT_EQ(back.failure_reason, "bad \xef\xbf\xbd");
+  EXPECT_EQ(back.keyframe_b.source, "b.png");
+}
+
 TEST(EntryReport, BriefReportHasOneKeyValueLineEach) {
   const std::string brief = BriefReport(Filled());
   EXPECT_NE(brief.find("success true\n"), std::string::npos) << brief;

@@ -9,6 +9,8 @@
 
 #include "calib/undistort.h"
 #include "dataset/tum.h"
+#include "entry/json_text.h"
+#include "eval/tum_pairs.h"
 #include "recon/epipolar.h"
 
 namespace mm {
@@ -53,14 +55,16 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
   }
   std::vector<TumFrame> frames;
   std::optional<Trajectory> gt;
+  if (std::string missing = MissingGroundTruth(dataset); !missing.empty()) {
+    result.failure_reason = missing;
+    return result;
+  }
   try {
     frames =
         ReadTumList(options.list.empty()
                         ? dataset / "rgb.txt"
                         : (options.list.is_absolute() ? options.list : dataset / options.list));
-    if (std::filesystem::exists(dataset / "groundtruth.txt")) {
-      gt = Trajectory::Read(dataset / "groundtruth.txt");
-    }
+    gt = Trajectory::Read(dataset / "groundtruth.txt");
   } catch (const DatasetError& e) {
     result.failure_reason = e.what();
     return result;
@@ -325,7 +329,7 @@ std::string CaptureEvalToJson(const CaptureEvalResult& r) {
                               {"failures", s.failures}}},
                             {"video_s", r.video_s},
                             {"frames", r.frames}};
-  return nlohmann::json{{"captures", captures}, {"summary", summary}}.dump(2) + "\n";
+  return JsonText(nlohmann::json{{"captures", captures}, {"summary", summary}}, 2) + "\n";
 }
 
 }  // namespace mm

@@ -11,6 +11,7 @@
 #include "base/stats.h"
 #include "dataset/tum.h"
 #include "entry/entry.h"
+#include "entry/json_text.h"
 
 namespace mm {
 namespace {
@@ -202,7 +203,7 @@ std::string EntryEvalToJson(const EntryEvalResult& r) {
       {"evaluated", r.evaluated},
       {"rot_err_deg", {{"median", r.rot_err_median_deg}, {"max", r.rot_err_max_deg}}},
       {"trans_err_deg", {{"median", r.trans_err_median_deg}, {"max", r.trans_err_max_deg}}}};
-  return json({{"summary", summary}, {"entries", entries}}).dump(2) + "\n";
+  return JsonText(json({{"summary", summary}, {"entries", entries}}), 2) + "\n";
 }
 
 }  // namespace mm

@@ -12,6 +12,7 @@
 
 #include "calib/undistort.h"
 #include "dataset/tum.h"
+#include "entry/json_text.h"
 #include "eval/mesh_checks.h"
 
 namespace mm {
@@ -140,6 +141,13 @@ EvalSummary Summarize(const std::vector<PairEval>& pairs) {
 
 }  // namespace
 
+std::string MissingGroundTruth(const std::filesystem::path& dataset) {
+  const std::filesystem::path file = dataset / "groundtruth.txt";
+  if (std::filesystem::is_regular_file(file)) return {};
+  return file.string() + ": missing; the evaluation compares with the dataset's ground truth " +
+         "(TUM format: timestamp tx ty tz qx qy qz qw)";
+}
+
 std::string EvalOptions::Check() const {
   if (step < 1) return "step: must be >= 1";
   if (threads < 0) return "threads: must be >= 0";
@@ -156,13 +164,17 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
   }
   std::vector<TumFrame> frames, depth_frames;
   std::optional<Trajectory> trajectory;
+  // An evaluation without ground truth has nothing to compare with: without this, every error
+  // printed 0.000 deg and every reconstructed pair counted as a success.
+  if (std::string missing = MissingGroundTruth(dataset); !missing.empty()) {
+    result.failure_reason = missing;
+    return result;
+  }
   try {
     std::filesystem::path list = options.list.empty() ? dataset / "rgb.txt" : options.list;
     if (list.is_relative() && !std::filesystem::exists(list)) list = dataset / list;
     frames = ReadTumList(list);
-    if (std::filesystem::exists(dataset / "groundtruth.txt")) {
-      trajectory = Trajectory::Read(dataset / "groundtruth.txt");
-    }
+    trajectory = Trajectory::Read(dataset / "groundtruth.txt");
     if (std::filesystem::exists(dataset / "depth.txt")) {
       depth_frames = ReadTumList(dataset / "depth.txt");
     }
@@ -285,6 +297,14 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       }
     }
     result.pairs.push_back(p);
+  }
+  if (!result.pairs.empty() &&
+      std::none_of(result.pairs.begin(), result.pairs.end(),
+                   [](const PairEval& p) { return p.has_gt; })) {
+    result.failure_reason = (dataset / "groundtruth.txt").string() +
+                            ": no pose within " + std::to_string(options.max_gt_dt_s) +
+                            " s of any pair's frames; nothing to compare with";
+    return result;
   }
   result.summary = Summarize(result.pairs);
   result.ok = true;
@@ -456,7 +476,7 @@ std::string EvalToJson(const EvalResult& result) {
     }
     pairs.push_back(std::move(j));
   }
-  return json{{"summary", summary}, {"pairs", pairs}}.dump(2) + "\n";
+  return JsonText(json{{"summary", summary}, {"pairs", pairs}}, 2) + "\n";
 }
 
 }  // namespace mm

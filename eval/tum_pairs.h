@@ -103,7 +103,12 @@ struct EvalResult {
   EvalSummary summary;
 };
 
-/// Runs the evaluation; dataset errors are reported in the result (ok = false).
+/// Empty when `dataset`/groundtruth.txt is a file, else an error naming it: every evaluation
+/// against ground truth (pairs, captures) refuses a folder without one.
+[[nodiscard]] std::string MissingGroundTruth(const std::filesystem::path& dataset);
+
+/// Runs the evaluation; dataset errors are reported in the result (ok = false), as is a missing
+/// groundtruth.txt or one with no pose near any pair's frames.
 EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetCamera& camera,
                             const EvalOptions& options);
 

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.add_option("-c,--config", config_path, "Config file (TOML)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
+  // Exit codes: docs/exit_codes.md.
   mm::DaemonConfig config;
   try {
     config = mm::LoadDaemonConfig(config_path);
@@ -21,6 +22,10 @@ int main(int argc, char** argv) {
     mm::SetupLogging("info");
     spdlog::critical("config: {}", e.what());
     return 78;  // EX_CONFIG: systemd does not restart on it (RestartPreventExitStatus=78).
+  } catch (const std::exception& e) {
+    mm::SetupLogging("info");
+    spdlog::critical("internal error reading {}: {}", config_path, e.what());
+    return 70;  // EX_SOFTWARE
   }
   mm::SetupLogging(config.log_level);
   return mm::RunDaemon(config);

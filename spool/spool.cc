@@ -7,9 +7,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <string_view>
 #include <system_error>
 
 namespace mm {
@@ -44,17 +46,42 @@ std::string FsyncDir(const fs::path& dir) {
   return {};
 }
 
-bool IsEntryName(const std::string& name) { return !name.empty() && name[0] != '.'; }
+bool IsDigits(std::string_view s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
 
-// The sequence number after the last '-' of an entry name, or 0.
+// The spool owns only what it names: entries "<YYYYMMDDThhmmssZ>-<sequence of >= 6 digits>"
+// (what Commit makes) and its work folders, kTempPrefix + an entry name or + "del-" + an entry
+// name. Anything else in the folder (an operator's archive/, a watcher's files) is never
+// listed, counted for retention or removed.
+bool IsEntryName(std::string_view name) {
+  return name.size() >= 23 && IsDigits(name.substr(0, 8)) && name[8] == 'T' &&
+         IsDigits(name.substr(9, 6)) && name[15] == 'Z' && name[16] == '-' &&
+         IsDigits(name.substr(17));
+}
+
+constexpr std::string_view kDeletePrefix = "del-";
+
+bool IsOwnWorkName(std::string_view name) {
+  const std::string_view temp = Spool::kTempPrefix;
+  if (name.substr(0, temp.size()) != temp) return false;
+  name.remove_prefix(temp.size());
+  if (name.substr(0, kDeletePrefix.size()) == kDeletePrefix) name.remove_prefix(kDeletePrefix.size());
+  return IsEntryName(name);
+}
+
+// The sequence number after the entry name's '-' (0 when it does not fit in 64 bits).
 uint64_t SequenceOf(const std::string& name) {
-  const auto dash = name.rfind('-');
-  if (dash == std::string::npos) return 0;
-  try {
-    return std::stoull(name.substr(dash + 1));
-  } catch (...) {
-    return 0;
-  }
+  uint64_t sequence = 0;
+  const char* digits = name.data() + 17;
+  std::from_chars(digits, name.data() + name.size(), sequence);
+  return sequence;
+}
+
+// A real folder, not a symlink to one (the spool never follows links out of itself).
+bool IsRealDirectory(const fs::directory_entry& item) {
+  std::error_code ec;
+  return item.symlink_status(ec).type() == fs::file_type::directory;
 }
 
 }  // namespace
@@ -75,11 +102,11 @@ std::string Spool::Recover(int* removed_leftovers) {
   uint64_t max_sequence = 0;
   for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
     const std::string name = item.path().filename().string();
-    if (name.rfind(kTempPrefix, 0) == 0) {
+    if (IsOwnWorkName(name)) {
       fs::remove_all(item.path(), ec);
       if (ec) return "spool: cannot remove leftover " + item.path().string() + ": " + ec.message();
       ++removed;
-    } else if (IsEntryName(name)) {
+    } else if (IsEntryName(name) && IsRealDirectory(item)) {
       max_sequence = std::max(max_sequence, SequenceOf(name));
     }
   }
@@ -93,7 +120,7 @@ std::vector<fs::path> Spool::Entries() const {
   std::vector<fs::path> entries;
   std::error_code ec;
   for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
-    if (item.is_directory() && IsEntryName(item.path().filename().string())) {
+    if (IsRealDirectory(item) && IsEntryName(item.path().filename().string())) {
       entries.push_back(item.path());
     }
   }
@@ -151,8 +178,9 @@ SpoolCommit Spool::Commit(const std::vector<SpoolFile>& files, std::time_t when)
     std::error_code ec;
     for (size_t i = 0; i + static_cast<size_t>(options_.max_entries) < entries.size(); ++i) {
       // Rename out of sight first so a watcher never sees a half-deleted entry.
-      const fs::path doomed = options_.dir / (std::string(kTempPrefix) + "del-" +
-                                              entries[i].filename().string());
+      const fs::path doomed =
+          options_.dir / (std::string(kTempPrefix) + std::string(kDeletePrefix) +
+                          entries[i].filename().string());
       fs::rename(entries[i], doomed, ec);
       if (!ec) fs::remove_all(doomed, ec);
       if (!ec) ++result.removed_by_retention;

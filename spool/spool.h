@@ -3,7 +3,9 @@
 // `<spool>/<UTC time>-<seq>/` that appears whole or not at all: its files are written into
 // `<spool>/.tmp-<name>/`, each fsynced, the folder fsynced, then renamed into place and the
 // spool folder fsynced (rename(2) is atomic within a filesystem). Watchers ignore dot-names.
-// Leftovers of a crash (.tmp-*) are removed by Recover() at start.
+// Leftovers of a crash (.tmp-<entry name>) are removed by Recover() at start. The spool touches
+// only names it makes: entries (`YYYYMMDDThhmmssZ-NNNNNN`, real folders) and its .tmp- work
+// folders; anything else in the folder is left alone and never counts as an entry.
 //
 // Thread-safety: thread-bound (one writer per spool folder).
 
@@ -23,6 +25,7 @@ struct SpoolFile {
 struct SpoolOptions {
   std::filesystem::path dir;  ///< The spool folder (created if missing).
   int max_entries = 0;        ///< Keep at most this many entries, oldest removed first; 0 = all.
+                              ///< Only entries count; foreign files and folders stay.
   [[nodiscard]] std::string Check() const;
 };
 
@@ -46,7 +49,7 @@ class Spool {
   /// (e.g. ENOSPC) the temporary folder is removed and earlier entries are untouched.
   [[nodiscard]] SpoolCommit Commit(const std::vector<SpoolFile>& files, std::time_t when);
 
-  /// Committed entries, oldest first.
+  /// Committed entries (folders with the entry name pattern), oldest first.
   [[nodiscard]] std::vector<std::filesystem::path> Entries() const;
   [[nodiscard]] const std::filesystem::path& dir() const { return options_.dir; }
 

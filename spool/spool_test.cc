@@ -71,6 +71,43 @@ TEST(Spool, RetentionKeepsNewest) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
 }
 
+// Retention and recovery touch only names the spool made: an operator's archive/, a file, a
+// folder whose name only looks similar, a symlink named like an entry, and a foreign dot-name
+// survive, and none of them counts as an entry.
+TEST(Spool, RetentionAndRecoveryLeaveForeignNamesAlone) {
+  const fs::path dir = FreshDir("foreign");
+  const fs::path outside = FreshDir("foreign_target");
+  fs::create_directories(dir / "archive");
+  std::ofstream(dir / "archive" / "keep.txt") << "operator data";
+  std::ofstream(dir / "notes.txt") << "notes";
+  fs::create_directories(dir / "20240101T000000Z-backup");
+  fs::create_directories(dir / ".tmp-mine");
+  fs::create_directories(outside);
+  std::ofstream(outside / "x") << "x";
+  fs::create_directory_symlink(outside, dir / "19990101T000000Z-000001");
+  Spool spool({.dir = dir, .max_entries = 2});
+  int removed = 0;
+  ASSERT_EQ(spool.Recover(&removed), "");
+  EXPECT_EQ(removed, 0);
+  EXPECT_TRUE(spool.Entries().empty());
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(spool.Commit({{"f", std::to_string(i)}}, i).ok);
+  const auto entries = spool.Entries();
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_EQ(ReadAll(entries[0] / "f"), "2");
+  EXPECT_EQ(ReadAll(entries[1] / "f"), "3");
+  EXPECT_EQ(ReadAll(dir / "archive" / "keep.txt"), "operator data");
+  EXPECT_TRUE(fs::exists(dir / "notes.txt"));
+  EXPECT_TRUE(fs::is_directory(dir / "20240101T000000Z-backup"));
+  EXPECT_TRUE(fs::is_directory(dir / ".tmp-mine"));
+  EXPECT_TRUE(fs::is_symlink(dir / "19990101T000000Z-000001"));
+  EXPECT_EQ(ReadAll(outside / "x"), "x");
+  Spool again({.dir = dir, .max_entries = 2});
+  ASSERT_EQ(again.Recover(&removed), "");
+  EXPECT_EQ(removed, 0);
+  EXPECT_TRUE(fs::is_directory(dir / ".tmp-mine"));
+  EXPECT_EQ(again.Entries().size(), 2u);
+}
+
 // A writer killed with SIGKILL in the middle of an entry leaves nothing visible; Recover()
 // removes its leftovers.
 TEST(Spool, KillDuringWriteLeavesNoVisibleEntry) {

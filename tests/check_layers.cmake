@@ -66,6 +66,22 @@ foreach(f IN LISTS app_files)
   endforeach()
 endforeach()
 
+# JSON text for output only through JsonText (entry/json_text.h): nlohmann's dump() throws on a
+# string that is not UTF-8 (a frame file name, a client's bytes), which ended the daemon.
+set(json_files "")
+foreach(folder base dataset calib spool recon render session entry eval synth capture firmware-app)
+  file(GLOB_RECURSE found "${SOURCE_DIR}/${folder}/*.h" "${SOURCE_DIR}/${folder}/*.cc")
+  list(APPEND json_files ${found})
+endforeach()
+list(FILTER json_files EXCLUDE REGEX "(_test\\.cc|/entry/json_text\\.cc)$")
+foreach(f IN LISTS json_files)
+  file(STRINGS "${f}" lines REGEX "\\.dump\\(")
+  foreach(l IN LISTS lines)
+    string(STRIP "${l}" l)
+    list(APPEND failures "${f}: ${l} (serialize JSON with JsonText, entry/json_text.h)")
+  endforeach()
+endforeach()
+
 if(failures)
   string(REPLACE ";" "\n" msg "${failures}")
   message(FATAL_ERROR "layer rule broken:\n${msg}")

@@ -1,11 +1,14 @@
 #include "app/config.h"
 
+#include <sys/un.h>
 #include <toml++/toml.h>
 
 #include <fstream>
 #include <set>
 #include <sstream>
 #include <type_traits>
+
+#include "base/checked_number.h"
 
 namespace mm {
 namespace {
@@ -47,17 +50,29 @@ class Reader {
     }
   }
 
+  // Strings and booleans. A boolean must be written true / false (toml++'s value<bool> also
+  // takes integers). Numbers go through GetNumber.
   template <typename T>
   void Get(const toml::table* table, const std::string& tname, const char* key, T* out) {
+    static_assert(std::is_same_v<T, bool> || std::is_same_v<T, std::string>);
     if (table == nullptr) return;
     const toml::node* node = table->get(key);
     if (node == nullptr) return;
-    // A boolean must be written true / false (toml++'s value<bool> also takes integers).
-    const auto v = [&] {
-      if constexpr (std::is_same_v<T, bool>) return node->value_exact<bool>();
-      else return node->value<T>();
-    }();
+    const std::optional<T> v = node->value_exact<T>();
     if (!v) Fail(node, tname + "." + key, "wrong type");
+    *out = *v;
+  }
+
+  // Every number: of the field's type within its range (base/checked_number.h).
+  template <typename T>
+  void GetNumber(const toml::table* table, const std::string& tname, const char* key,
+                 NumberRange<T> range, T* out) {
+    if (table == nullptr) return;
+    const toml::node* node = table->get(key);
+    if (node == nullptr) return;
+    std::string problem;
+    const std::optional<T> v = CheckedNumberOf<T>(*node, range, &problem);
+    if (!v) Fail(node, tname + "." + key, problem);
     *out = *v;
   }
 
@@ -83,6 +98,10 @@ class Reader {
   std::set<std::string> known_tables_;
 };
 
+// The upper bound of the count keys (features, tracks, inliers, entries): far above any use,
+// far below INT_MAX.
+constexpr int kMaxCount = 1'000'000;
+
 }  // namespace
 
 DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::path& path) {
@@ -105,6 +124,10 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
 
   const auto* control = r.Table("control", {"socket"});
   r.GetPath(control, "control", "socket", c.config_dir, &c.control_socket);
+  r.Require(c.control_socket.string().size() < sizeof(sockaddr_un{}.sun_path), control, "control",
+            "socket",
+            "longer than " + std::to_string(sizeof(sockaddr_un{}.sun_path) - 1) +
+                " bytes (the limit of a UNIX socket address)");
 
   const auto* trigger = r.Table("trigger", {"gpio_chip", "gpio_line", "active_low", "bias",
                                             "debounce_ms"});
@@ -118,9 +141,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
               "missing (offset or line name)");
     r.Get(trigger, "trigger", "active_low", &c.button.active_low);
     r.Get(trigger, "trigger", "bias", &c.button.bias);
-    int64_t debounce = c.button.debounce_ms;
-    r.Get(trigger, "trigger", "debounce_ms", &debounce);
-    c.button.debounce_ms = static_cast<int>(debounce);
+    r.GetNumber(trigger, "trigger", "debounce_ms", {0, 10000}, &c.button.debounce_ms);
     if (const std::string problem = c.button.Check(); !problem.empty()) {
       const char* key = problem.find("bias") != std::string::npos       ? "bias"
                         : problem.find("debounce") != std::string::npos ? "debounce_ms"
@@ -131,18 +152,12 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
 
   const auto* keyframes =
       r.Table("keyframes", {"parallax_deg", "min_tracks", "min_inliers", "timeout_s", "max_tries"});
-  int64_t min_tracks = c.gate.min_tracks;
-  int64_t gate_inliers = c.gate.min_inliers;
-  int64_t max_tries = c.max_b_tries;
-  r.Get(keyframes, "keyframes", "parallax_deg", &c.gate.parallax_deg);
-  r.Get(keyframes, "keyframes", "min_tracks", &min_tracks);
-  r.Get(keyframes, "keyframes", "min_inliers", &gate_inliers);
-  r.Get(keyframes, "keyframes", "max_tries", &max_tries);
-  r.Require(max_tries >= 1, keyframes, "keyframes", "max_tries", "must be >= 1");
-  c.max_b_tries = static_cast<int>(max_tries);
-  c.gate.min_tracks = static_cast<int>(min_tracks);
-  c.gate.min_inliers = static_cast<int>(gate_inliers);
-  r.Get(keyframes, "keyframes", "timeout_s", &c.keyframe_timeout_s);
+  r.GetNumber(keyframes, "keyframes", "parallax_deg", {0.0, 90.0}, &c.gate.parallax_deg);
+  r.GetNumber(keyframes, "keyframes", "min_tracks", {8, kMaxCount}, &c.gate.min_tracks);
+  r.GetNumber(keyframes, "keyframes", "min_inliers", {8, kMaxCount}, &c.gate.min_inliers);
+  r.GetNumber(keyframes, "keyframes", "max_tries", {1, 100}, &c.max_b_tries);
+  // An hour of tracking for one capture is already absurd; 1e300 ended every capture at once.
+  r.GetNumber(keyframes, "keyframes", "timeout_s", {0.0, 3600.0}, &c.keyframe_timeout_s);
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 
   const auto* recon = r.Table(
@@ -154,18 +169,16 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.Require(impl.has_value(), recon, "recon", "sift",
             "'" + sift + "' is not an implementation (own or opencv)");
   c.recon.sift.impl = impl.value_or(c.recon.sift.impl);
-  int64_t max_features = c.recon.sift.max_features;
-  int64_t min_inliers = c.recon.two_view.min_inliers;
-  r.Get(recon, "recon", "max_features", &max_features);
-  r.Get(recon, "recon", "contrast_threshold", &c.recon.sift.contrast_threshold);
-  r.Get(recon, "recon", "match_ratio", &c.recon.match.ratio);
-  r.Get(recon, "recon", "ransac_threshold_px", &c.recon.two_view.ransac_threshold_px);
-  r.Get(recon, "recon", "min_inliers", &min_inliers);
-  r.Get(recon, "recon", "max_depth_ratio", &c.recon.mesh.max_depth_ratio);
+  r.GetNumber(recon, "recon", "max_features", {0, kMaxCount}, &c.recon.sift.max_features);
+  r.GetNumber(recon, "recon", "contrast_threshold", {0.0, 1.0}, &c.recon.sift.contrast_threshold);
+  r.GetNumber(recon, "recon", "match_ratio", {0.0, 1.0}, &c.recon.match.ratio);
+  r.GetNumber(recon, "recon", "ransac_threshold_px", {0.0, 100.0},
+              &c.recon.two_view.ransac_threshold_px);
+  r.GetNumber(recon, "recon", "min_inliers", {8, kMaxCount}, &c.recon.two_view.min_inliers);
+  r.GetNumber(recon, "recon", "max_depth_ratio", {0.0, 1e6}, &c.recon.mesh.max_depth_ratio);
   r.Get(recon, "recon", "refine_points", &c.recon.refinement.enabled);
-  r.Get(recon, "recon", "min_parallax_deg", &c.recon.two_view.min_median_triangulation_angle_deg);
-  c.recon.sift.max_features = static_cast<int>(max_features);
-  c.recon.two_view.min_inliers = static_cast<int>(min_inliers);
+  r.GetNumber(recon, "recon", "min_parallax_deg", {0.0, 90.0},
+              &c.recon.two_view.min_median_triangulation_angle_deg);
   if (const std::string problem = c.recon.Check(); !problem.empty()) {
     // The option names in Check() messages are the struct's; map the common ones to keys.
     const std::string field = problem.substr(0, problem.find(':'));
@@ -184,10 +197,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
 
   const auto* spool = r.Table("spool", {"dir", "max_entries"});
   r.GetPath(spool, "spool", "dir", c.config_dir, &c.spool_dir);
-  int64_t max_entries = c.spool_max_entries;
-  r.Get(spool, "spool", "max_entries", &max_entries);
-  r.Require(max_entries >= 0, spool, "spool", "max_entries", "must be >= 0");
-  c.spool_max_entries = static_cast<int>(max_entries);
+  r.GetNumber(spool, "spool", "max_entries", {0, kMaxCount}, &c.spool_max_entries);
 
   const auto* log = r.Table("log", {"level"});
   r.Get(log, "log", "level", &c.log_level);

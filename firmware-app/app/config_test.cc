@@ -102,5 +102,44 @@ TEST(DaemonConfig, ErrorsNameTheKey) {
               "trigger.debounce_ms");
 }
 
+// Every number is checked for its type and range: nothing wraps, nothing non-finite or absurd.
+TEST(DaemonConfig, NumbersOutOfRangeAreErrorsNotWrapped) {
+  const std::string m(kMinimal);
+  // 4294967297 = 2^32 + 1 became 1 through a cast to int.
+  ExpectError(m + "[spool]\nmax_entries = 4294967297\n", "spool.max_entries': expected an integer");
+  ExpectError(m + "[spool]\nmax_entries = -1\n", "spool.max_entries");
+  ExpectError(m + "[spool]\nmax_entries = 2.5\n", "spool.max_entries");
+  ExpectError(m + "[recon]\nmax_features = 4294967297\n", "recon.max_features");
+  ExpectError(m + "[recon]\nmin_inliers = 4294967304\n", "recon.min_inliers");
+  ExpectError(m + "[keyframes]\nmin_tracks = 4294967336\n", "keyframes.min_tracks");
+  ExpectError(m + "[keyframes]\nmin_inliers = 4294967334\n", "keyframes.min_inliers");
+  ExpectError(m + "[keyframes]\nmax_tries = 4294967298\n", "keyframes.max_tries");
+  ExpectError(m + "[trigger]\ngpio_chip = \"gpiochip0\"\ngpio_line = \"4\"\n"
+                  "debounce_ms = 4294967326\n",
+              "trigger.debounce_ms");
+  ExpectError(m + "[keyframes]\ntimeout_s = 1e300\n", "keyframes.timeout_s': expected a finite");
+  ExpectError(m + "[keyframes]\ntimeout_s = inf\n", "keyframes.timeout_s");
+  ExpectError(m + "[keyframes]\ntimeout_s = nan\n", "keyframes.timeout_s");
+  ExpectError(m + "[keyframes]\nparallax_deg = inf\n", "keyframes.parallax_deg");
+  ExpectError(m + "[keyframes]\nparallax_deg = nan\n", "keyframes.parallax_deg");
+  ExpectError(m + "[recon]\nmin_parallax_deg = nan\n", "recon.min_parallax_deg");
+  ExpectError(m + "[recon]\nmatch_ratio = nan\n", "recon.match_ratio");
+  ExpectError(m + "[recon]\ncontrast_threshold = inf\n", "recon.contrast_threshold");
+  ExpectError(m + "[recon]\nransac_threshold_px = 1e300\n", "recon.ransac_threshold_px");
+  ExpectError(m + "[recon]\nmax_depth_ratio = inf\n", "recon.max_depth_ratio");
+  ExpectError(m + "[recon]\nmax_features = \"many\"\n", "recon.max_features': wrong type");
+  // In range: integral floats count as integers, integers as floats.
+  const DaemonConfig c = ParseDaemonConfig(
+      m + "[spool]\nmax_entries = 1e3\n[keyframes]\ntimeout_s = 10\n", "/x/d.toml");
+  EXPECT_EQ(c.spool_max_entries, 1000);
+  EXPECT_EQ(c.keyframe_timeout_s, 10.0);
+}
+
+TEST(DaemonConfig, SocketPathLongerThanASocketAddressIsAnError) {
+  ExpectError(std::string(kMinimal) + "[control]\nsocket = \"/run/" + std::string(120, 's') +
+                  "\"\n",
+              "control.socket");
+}
+
 }  // namespace
 }  // namespace mm

@@ -2,6 +2,7 @@
 
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 
 #include <cerrno>
@@ -15,7 +16,7 @@ sockaddr_un Address(const std::filesystem::path& path) {
   addr.sun_family = AF_UNIX;
   const std::string s = path.string();
   if (s.size() >= sizeof(addr.sun_path)) {
-    throw ControlError("control socket " + s + ": path longer than " +
+    throw ControlPathError("control socket " + s + ": path longer than " +
                        std::to_string(sizeof(addr.sun_path) - 1) + " bytes");
   }
   std::memcpy(addr.sun_path, s.c_str(), s.size() + 1);
@@ -32,15 +33,26 @@ UniqueFd ListenControlSocket(const std::filesystem::path& path) {
   const sockaddr_un addr = Address(path);
   std::error_code ec;
   std::filesystem::create_directories(path.parent_path(), ec);
-  // Is a daemon already serving here?
-  {
+  // Whatever is at the path is removed only when it is a socket and nobody accepts on it
+  // (a config naming /etc/passwd or a folder must not delete it).
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) {
+      throw ControlPathError("control socket " + path.string() +
+                             ": exists and is not a socket; not removing it (fix [control] "
+                             "socket or move the file away)");
+    }
     UniqueFd probe(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
+    if (!probe.valid()) throw ControlError(Errno(path, "socket"));
     if (::connect(probe.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0) {
       throw ControlError("control socket " + path.string() +
                          ": another monomeshd is listening on it");
     }
+    if (errno != ECONNREFUSED) throw ControlError(Errno(path, "connect to the existing socket"));
+    if (::unlink(path.c_str()) != 0) throw ControlError(Errno(path, "unlink the stale socket"));
+  } else if (errno != ENOENT) {
+    throw ControlError(Errno(path, "lstat"));
   }
-  ::unlink(path.c_str());
   UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0));
   if (!fd.valid()) throw ControlError(Errno(path, "socket"));
   if (::bind(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {

@@ -1,6 +1,10 @@
 #pragma once
 // The daemon's control socket: a UNIX stream socket, one request line per connection
-// ("trigger", "status", "ping"), one JSON reply line.
+// ("trigger", "status", "ping"), one JSON reply line, then the daemon closes the connection.
+// The line may arrive in pieces; it ends at '\n' or when the client shuts down writing. The
+// daemon answers an error and closes a request longer than 256 bytes, one without an end of
+// line within 5 s, and connections beyond 32 at once ("busy"); an idle connection is closed
+// after 5 s. At the fd limit it stops accepting for 200 ms at a time instead of spinning.
 
 #include <chrono>
 #include <filesystem>
@@ -16,14 +20,23 @@ class ControlError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The configured path cannot be the control socket (too long, or a file that is not a socket,
+/// which the daemon never deletes): a configuration error, not a passing one.
+class ControlPathError : public ControlError {
+ public:
+  using ControlError::ControlError;
+};
+
 /// The daemon accepted the request but did not answer within the timeout (busy, not gone).
 class ControlTimeout : public ControlError {
  public:
   using ControlError::ControlError;
 };
 
-/// Creates, binds and listens on `path` (non-blocking, close-on-exec). A stale socket file
-/// left by a crashed daemon is replaced; a live daemon on it is an error.
+/// Creates, binds and listens on `path` (non-blocking, close-on-exec). Only a stale socket (a
+/// socket file nobody accepts on: connect refused, left by a crashed daemon) is replaced; a
+/// live daemon on it is a ControlError, and anything at the path that is not a socket is a
+/// ControlPathError and stays untouched.
 /// \throws ControlError naming the path.
 UniqueFd ListenControlSocket(const std::filesystem::path& path);
 

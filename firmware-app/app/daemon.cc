@@ -6,6 +6,7 @@
 #include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/timerfd.h>
 #include <systemd/sd-daemon.h>
 
@@ -30,6 +31,7 @@
 #include "capture/capture_thread.h"
 #include "capture/source_uri.h"
 #include "capture/trigger.h"
+#include "entry/json_text.h"
 #include "session/capture_session.h"
 #include "spool/spool.h"
 
@@ -38,8 +40,10 @@ namespace {
 
 using json = nlohmann::json;
 
-constexpr int kExitSoftware = 70;  // EX_SOFTWARE
-constexpr int kExitUnavailable = 69;  // EX_UNAVAILABLE
+// Exit codes (sysexits.h; docs/exit_codes.md is the table).
+constexpr int kExitUnavailable = 69;  // EX_UNAVAILABLE: a device or the socket is not there yet.
+constexpr int kExitSoftware = 70;     // EX_SOFTWARE: an internal error (a bug).
+constexpr int kExitConfig = 78;       // EX_CONFIG: restarting will not help.
 
 void SignalEventFd(int fd) {
   const uint64_t one = 1;
@@ -84,7 +88,7 @@ class Worker {
   Worker(const DaemonConfig& config, const BouguetCamera& undistorted_camera, Spool* spool,
          int done_fd)
       : config_(config), camera_(undistorted_camera), spool_(spool), done_fd_(done_fd) {
-    thread_ = std::thread([this] { Run(); });
+    thread_ = std::thread([this] { RunGuarded(); });
   }
   ~Worker() {
     {
@@ -114,6 +118,12 @@ class Worker {
     return true;
   }
 
+  /// Set when an exception reached the thread's top (the thread has ended): the daemon exits 70.
+  std::optional<std::string> fatal_error() {
+    std::lock_guard lock(mutex_);
+    return fatal_error_;
+  }
+
   std::optional<JobOutcome> TakeOutcome() {
     std::lock_guard lock(mutex_);
     if (outcomes_.empty()) return std::nullopt;
@@ -123,6 +133,25 @@ class Worker {
   }
 
  private:
+  // An exception leaving a std::thread calls std::terminate (SIGABRT, restarted forever by
+  // systemd): it is caught here, kept for the loop and reported through the done eventfd.
+  void RunGuarded() {
+    std::string fatal;
+    try {
+      Run();
+      return;
+    } catch (const std::exception& e) {
+      fatal = std::string("worker: ") + e.what();
+    } catch (...) {
+      fatal = "worker: unknown exception";
+    }
+    {
+      std::lock_guard lock(mutex_);
+      fatal_error_ = std::move(fatal);
+    }
+    SignalEventFd(done_fd_);
+  }
+
   void Run() {
     for (;;) {
       Job job;
@@ -134,7 +163,15 @@ class Worker {
           PrepareJob prepare = std::move(*prepare_);
           prepare_.reset();
           lock.unlock();
-          Features features = ExtractKeyframeFeatures(prepare.image, config_.recon);
+          Features features;
+          try {
+            features = ExtractKeyframeFeatures(prepare.image, config_.recon);
+          } catch (const std::exception& e) {
+            // Not fatal: Process extracts A's features again and reports its own failure.
+            spdlog::error("capture {}: keyframe A features: {}", prepare.capture_id, e.what());
+            lock.lock();
+            continue;
+          }
           lock.lock();
           features_ = std::move(features);
           features_capture_ = prepare.capture_id;
@@ -216,6 +253,21 @@ class Worker {
   Features features_;            // Keyframe A's, guarded by mutex_.
   uint64_t features_capture_ = 0;  // Whose features_ are; guarded by mutex_.
   std::deque<JobOutcome> outcomes_;  // Guarded by mutex_.
+  std::optional<std::string> fatal_error_;  // Guarded by mutex_.
+};
+
+// The control protocol's limits (control.h): one request line per connection.
+constexpr size_t kMaxRequestBytes = 256;   // The longest command is 7 bytes.
+constexpr auto kClientIdleTimeout = std::chrono::seconds(5);  // A held connection is closed.
+constexpr size_t kMaxClients = 32;         // More at once are answered "busy" and closed.
+constexpr auto kAcceptBackoff = std::chrono::milliseconds(200);  // After EMFILE / ENFILE.
+
+// A control-socket client: the request line is collected across reads (a command may arrive in
+// several pieces).
+struct Client {
+  UniqueFd fd;
+  std::string request;
+  std::chrono::steady_clock::time_point last_read;
 };
 
 enum class State { kIdle, kTracking, kReconstructing };
@@ -250,7 +302,12 @@ class Daemon {
   void SettleGate();
   void OnJobDone();
   void OnTimer();
+  void OnAccept();
+  void PauseAccept();
   void OnClient(int fd);
+  json Answer(std::string request);
+  void ReplyAndClose(int fd, const json& reply);
+  void CloseClient(int fd);
   json Status();
   void SetState(State s);
   void EndCapture(const std::string& error);
@@ -270,7 +327,12 @@ class Daemon {
   UniqueFd signal_fd_;
   UniqueFd timer_fd_;
   UniqueFd listen_fd_;
-  std::map<int, UniqueFd> clients_;
+  std::pair<dev_t, ino_t> socket_id_{};  // The bound socket file's device and inode.
+  std::map<int, Client> clients_;
+  // Accepting paused until then (the fd limit was reached: the pending connection would keep
+  // the listen socket readable and the loop spinning).
+  std::optional<std::chrono::steady_clock::time_point> accept_resume_;
+  bool accept_failing_ = false;  // Logged once until an accept succeeds again.
   std::unique_ptr<CaptureThread> capture_;
   std::vector<std::unique_ptr<Trigger>> triggers_;  // SIGUSR1, the GPIO button when configured.
   std::unique_ptr<Worker> worker_;
@@ -356,7 +418,7 @@ int Daemon::Run() {
             .on_error = [](const std::string& e) { spdlog::error("camera: {}", e); }});
   } catch (const SourceUriError& e) {
     spdlog::critical("{}", e.what());
-    return 78;  // EX_CONFIG: the URI is part of the configuration.
+    return kExitConfig;  // The URI is part of the configuration.
   }
   if (std::string error = capture_->Start(); !error.empty()) {
     spdlog::critical("camera: {}", error);
@@ -366,10 +428,15 @@ int Daemon::Run() {
 
   try {
     listen_fd_ = ListenControlSocket(config_.control_socket);
+  } catch (const ControlPathError& e) {
+    spdlog::critical("{}", e.what());
+    return kExitConfig;
   } catch (const ControlError& e) {
     spdlog::critical("{}", e.what());
     return kExitUnavailable;
   }
+  struct stat bound {};
+  if (::lstat(config_.control_socket.c_str(), &bound) == 0) socket_id_ = {bound.st_dev, bound.st_ino};
   AddFd(listen_fd_.get());
   if (config_.button_enabled) {
     triggers_.push_back(std::make_unique<GpioButton>(config_.button));
@@ -421,6 +488,10 @@ int Daemon::Run() {
         OnGateDone();
       } else if (fd == done_event_.get()) {
         DrainEventFd(fd);
+        if (std::optional<std::string> fatal = worker_->fatal_error()) {
+          spdlog::critical("internal error: {}", *fatal);
+          return kExitSoftware;
+        }
         OnJobDone();
       } else if (fd == timer_fd_.get()) {
         DrainEventFd(fd);
@@ -436,12 +507,7 @@ int Daemon::Run() {
           OnTrigger(event.source.c_str(), &reply);
         }
       } else if (fd == listen_fd_.get()) {
-        for (;;) {
-          const int client = ::accept4(fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-          if (client < 0) break;
-          clients_.emplace(client, UniqueFd(client));
-          AddFd(client);
-        }
+        OnAccept();
       } else {
         OnClient(fd);
       }
@@ -451,7 +517,12 @@ int Daemon::Run() {
   gate_.reset();
   worker_.reset();  // Finishes the job in progress: an entry is committed whole or not at all.
   capture_->Stop();
-  ::unlink(config_.control_socket.c_str());
+  // Only the socket this daemon bound (not a file put there since).
+  struct stat now {};
+  if (::lstat(config_.control_socket.c_str(), &now) == 0 && S_ISSOCK(now.st_mode) &&
+      std::pair(now.st_dev, now.st_ino) == socket_id_) {
+    ::unlink(config_.control_socket.c_str());
+  }
   spdlog::info("stopped");
   return 0;
 }
@@ -626,34 +697,119 @@ void Daemon::OnTimer() {
     sd_notify(0, "WATCHDOG=1");
     last_watchdog_ = now;
   }
+  if (accept_resume_ && now >= *accept_resume_) {
+    accept_resume_.reset();
+    AddFd(listen_fd_.get());
+  }
+  std::vector<int> idle;
+  for (const auto& [fd, client] : clients_) {
+    if (now - client.last_read > kClientIdleTimeout) idle.push_back(fd);
+  }
+  for (int fd : idle) {
+    if (clients_.at(fd).request.empty()) {
+      CloseClient(fd);
+    } else {
+      ReplyAndClose(fd, {{"ok", false},
+                         {"error", "no end of line within " +
+                                       std::to_string(kClientIdleTimeout.count()) + " s"}});
+    }
+  }
+}
+
+void Daemon::OnAccept() {
+  for (;;) {
+    const int client = ::accept4(listen_fd_.get(), nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (client < 0) {
+      if (errno == EINTR || errno == ECONNABORTED) continue;
+      if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
+        PauseAccept();
+      }
+      return;  // EAGAIN: none pending.
+    }
+    UniqueFd fd(client);
+    accept_failing_ = false;
+    if (clients_.size() >= kMaxClients) {
+      const std::string line =
+          JsonText({{"ok", false},
+                    {"error", "busy: " + std::to_string(kMaxClients) + " clients connected"}}) +
+          "\n";
+      [[maybe_unused]] const ssize_t w = ::send(client, line.data(), line.size(), MSG_NOSIGNAL);
+      continue;  // Closed by fd.
+    }
+    AddFd(client);
+    clients_.emplace(client, Client{std::move(fd), {}, std::chrono::steady_clock::now()});
+  }
+}
+
+void Daemon::PauseAccept() {
+  if (!accept_failing_) {
+    spdlog::warn("control socket: accept: {}; accepting again every {} ms until it succeeds",
+                 std::strerror(errno), kAcceptBackoff.count());
+    accept_failing_ = true;
+  }
+  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, listen_fd_.get(), nullptr);
+  accept_resume_ = std::chrono::steady_clock::now() + kAcceptBackoff;
+}
+
+void Daemon::CloseClient(int fd) {
+  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, fd, nullptr);
+  clients_.erase(fd);
+}
+
+void Daemon::ReplyAndClose(int fd, const json& reply) {
+  const std::string line = JsonText(reply) + "\n";
+  [[maybe_unused]] const ssize_t w = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+  CloseClient(fd);
 }
 
 void Daemon::OnClient(int fd) {
+  const auto it = clients_.find(fd);
+  if (it == clients_.end()) return;  // Closed earlier in this batch of events.
+  Client& client = it->second;
   char buf[512];
-  const ssize_t n = ::recv(fd, buf, sizeof(buf) - 1, 0);
-  json reply;
-  if (n > 0) {
-    std::string command(buf, static_cast<size_t>(n));
-    while (!command.empty() && (command.back() == '\n' || command.back() == '\r')) {
-      command.pop_back();
+  for (;;) {
+    const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    if (n > 0) {
+      client.last_read = std::chrono::steady_clock::now();
+      client.request.append(buf, static_cast<size_t>(n));
+      if (const size_t end = client.request.find('\n'); end != std::string::npos) {
+        client.request.resize(end);
+        ReplyAndClose(fd, Answer(std::move(client.request)));
+        return;
+      }
+      if (client.request.size() > kMaxRequestBytes) {
+        ReplyAndClose(fd, {{"ok", false},
+                           {"error", "request longer than " + std::to_string(kMaxRequestBytes) +
+                                         " bytes without an end of line"}});
+        return;
+      }
+      continue;
     }
-    if (command == "trigger") {
-      OnTrigger("control socket", &reply);
-    } else if (command == "status") {
-      reply = Status();
-    } else if (command == "ping") {
-      reply = {{"ok", true}};
-    } else {
-      reply = {{"ok", false}, {"error", "unknown command '" + command +
-                                            "' (known: trigger, status, ping)"}};
+    if (n == 0) {  // The client stopped writing: what came is the whole request.
+      if (client.request.empty()) {
+        CloseClient(fd);
+      } else {
+        ReplyAndClose(fd, Answer(std::move(client.request)));
+      }
+      return;
     }
-    const std::string line = reply.dump() + "\n";
-    [[maybe_unused]] const ssize_t w = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
-  } else if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-    return;  // Spurious wake-up; wait for the request.
+    if (errno == EINTR) continue;
+    if (errno != EAGAIN && errno != EWOULDBLOCK) CloseClient(fd);
+    return;  // EAGAIN: the rest of the line comes later.
   }
-  ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, fd, nullptr);
-  clients_.erase(fd);
+}
+
+json Daemon::Answer(std::string request) {
+  if (!request.empty() && request.back() == '\r') request.pop_back();
+  if (request == "trigger") {
+    json reply;
+    OnTrigger("control socket", &reply);
+    return reply;
+  }
+  if (request == "status") return Status();
+  if (request == "ping") return {{"ok", true}};
+  return {{"ok", false},
+          {"error", "unknown command '" + request + "' (known: trigger, status, ping)"}};
 }
 
 json Daemon::Status() {
@@ -696,21 +852,26 @@ int RunDaemon(const DaemonConfig& config) {
     camera = LoadCalibration(config.calibration);
   } catch (const CalibrationError& e) {
     spdlog::critical("{}", e.what());
-    return 78;
+    return kExitConfig;
   }
   if (camera.width <= 0) {
     spdlog::critical("{}: image_size is required by the daemon", config.calibration.string());
-    return 78;
+    return kExitConfig;
   }
   if (std::string problem = config.gate.Check(); !problem.empty()) {
     spdlog::critical("config: keyframes.{}", problem);
-    return 78;
+    return kExitConfig;
   }
-  Daemon daemon(config, camera);
+  // The event loop's top: construction too (the undistortion maps are made there, and OpenCV
+  // throws cv::Exception on what it cannot allocate).
   try {
+    Daemon daemon(config, camera);
     return daemon.Run();
   } catch (const std::exception& e) {
     spdlog::critical("internal error: {}", e.what());
+    return kExitSoftware;
+  } catch (...) {
+    spdlog::critical("internal error: unknown exception");
     return kExitSoftware;
   }
 }

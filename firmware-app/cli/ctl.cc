@@ -7,6 +7,7 @@
 #include "app/config.h"
 #include "app/control.h"
 #include "cli/commands.h"
+#include "entry/json_text.h"
 
 namespace mm::cli {
 namespace {
@@ -19,7 +20,7 @@ int RunCtl(const std::string& command, std::filesystem::path socket, const std::
   if (!config.empty()) socket = LoadDaemonConfig(config).control_socket;
   const json reply = json::parse(SendControlCommand(socket, command, 5s));
   if (command != "trigger" || wait_s <= 0 || !reply.value("ok", false)) {
-    std::cout << reply.dump(2) << "\n";
+    std::cout << JsonText(reply, 2) << "\n";
     return reply.value("ok", false) ? 0 : 1;
   }
   // Wait until the daemon reports the result of this capture.
@@ -40,7 +41,7 @@ int RunCtl(const std::string& command, std::filesystem::path socket, const std::
     }
     const json& last = status["last_result"];
     if (last.is_object() && last.value("capture", uint64_t{0}) == capture) {
-      std::cout << last.dump(2) << "\n";
+      std::cout << JsonText(last, 2) << "\n";
       return last.value("ok", false) ? 0 : 1;
     }
     std::this_thread::sleep_for(100ms);

@@ -1,12 +1,19 @@
 // monomeshd end to end: the bundled TUM keyframes replayed through the virtual camera, a
 // trigger over the control socket, and the spool entry checked against ground truth.
+#include <poll.h>
 #include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/statvfs.h>
+#include <sys/un.h>
 
 #include <Eigen/Geometry>
+#include <cstring>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/unique_fd.h"
 #include "dataset/tum.h"
 #include "tests/integration/daemon_process.h"
 #include "tests/support/rotation_sequence.h"
@@ -100,9 +107,11 @@ TEST(Daemon, KillDuringSpoolWriteLeavesNoPartialEntry) {
   EXPECT_NE(daemon.log().find("incomplete entries left by an earlier crash"), std::string::npos);
 }
 
+// The daemon's exit code; a daemon still running after 60 s is stopped (timeout exits 124).
 int RunDaemonExpectingExit(const fs::path& config, std::string* log) {
   const char* bin = std::getenv("MONOMESHD");
-  const std::string cmd = std::string(bin) + " --config " + config.string() + " 2>&1";
+  const std::string cmd =
+      "timeout -k 5 60 " + std::string(bin) + " --config " + config.string() + " 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   char buf[512];
   while (std::fgets(buf, sizeof(buf), pipe) != nullptr) *log += buf;
@@ -143,6 +152,247 @@ TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   EXPECT_NE(log.find("camera.fc"), std::string::npos) << log;
 }
 
+// A copy of the bundled dataset the test may change.
+fs::path CopyOfBundledData(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::copy(kData, dir, fs::copy_options::recursive);
+  return dir;
+}
+
+// A calibration's image size above kMaxImageSide is refused at load, naming the file and the
+// field (OpenCV's cv::Exception from the undistortion maps aborted the daemon: SIGABRT, which
+// systemd restarts forever).
+TEST(Daemon, HugeCalibrationImageSizeExits78NamingTheField) {
+  const fs::path calib = fs::temp_directory_path() /
+                         ("mm_huge_calib_" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(calib) << "[camera]\nimage_size = [1000000, 1000000]\nfc = [500, 500]\n"
+                          "cc = [320, 240]\nkc = [0, 0, 0, 0]\n";
+  DaemonProcess daemon("hugecalib", "rate=max", "", kData, "", calib);
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_NE(log.find(calib.string()), std::string::npos) << log;
+  EXPECT_NE(log.find("camera.image_size"), std::string::npos) << log;
+  fs::remove(calib);
+}
+
+// Something at the configured socket path that is not a socket is never deleted: the daemon
+// exits 78 (a config error) naming the path, and the file or folder is as it was.
+TEST(Daemon, SocketPathHoldingAFileOrFolderIsLeftAloneAndExits78) {
+  DaemonProcess daemon("sockfile", "rate=max");
+  std::ofstream(daemon.socket()) << "precious";
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_NE(log.find(daemon.socket().string() + ": exists and is not a socket"),
+            std::string::npos)
+      << log;
+  EXPECT_EQ(ReadAll(daemon.socket()), "precious");
+  fs::remove(daemon.socket());
+  fs::create_directories(daemon.socket() / "inside");
+  log.clear();
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_TRUE(fs::is_directory(daemon.socket() / "inside"));
+}
+
+// Bytes that are not UTF-8 on the control socket: the reply echoes the command with U+FFFD and
+// is valid JSON; the daemon keeps serving (nlohmann's dump() threw, the daemon exited 70).
+TEST(Daemon, InvalidUtf8CommandIsAnsweredAndTheDaemonKeepsServing) {
+  DaemonProcess daemon("utf8cmd", "rate=realtime&loop=1");
+  daemon.Start();
+  for (const std::string command : {"\xff", "st\xc3" "atus", "\xed\xa0\x80"}) {
+    std::string line;
+    ASSERT_NO_THROW(line = SendControlCommand(daemon.socket(), command, 5s)) << daemon.log();
+    json reply;
+    ASSERT_NO_THROW(reply = json::parse(line)) << line;
+    EXPECT_FALSE(reply.value("ok", true)) << line;
+    EXPECT_NE(reply.value("error", "").find("\xef\xbf\xbd"), std::string::npos) << line;
+  }
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(daemon.Status()["state"], "idle");
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// Frame file names that are not UTF-8 (any byte string is a Linux file name) reach status (the
+// camera's last error, the keyframe's source) and report.json: both stay valid JSON, and the
+// capture's entry is written.
+TEST(Daemon, NonUtf8FrameFileNamesKeepStatusAndReportsWorking) {
+  const fs::path data = CopyOfBundledData("utf8names");
+  std::ifstream list_in(data / "rgb.txt");
+  std::ostringstream list_out;
+  for (std::string line; std::getline(list_in, line);) {
+    const auto slash = line.find("rgb/");
+    if (line.empty() || line[0] == '#' || slash == std::string::npos) {
+      list_out << line << "\n";
+      continue;
+    }
+    const std::string file = line.substr(slash);
+    const std::string renamed = "rgb/\xff\xfe" + file.substr(4);
+    fs::rename(data / file, data / renamed);
+    list_out << line.substr(0, slash) << renamed << "\n";
+  }
+  list_in.close();
+  std::ofstream(data / "rgb.txt") << list_out.str();
+  DaemonProcess daemon("utf8names", "rate=realtime&speed=2&loop=0", "", data);
+  daemon.Start();
+  const json result = daemon.TriggerAndWait(120s);
+  ASSERT_TRUE(result.value("ok", false)) << result.dump() << "\n" << daemon.log();
+  const fs::path entry = result["entry"].get<std::string>();
+  ExpectCompleteEntry(entry);
+  EXPECT_NE(ReadReport(entry).keyframe_a.source.find("\xef\xbf\xbd"), std::string::npos);
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// A raw control-socket connection (the tests below write in pieces and hold connections).
+UniqueFd ConnectRaw(const fs::path& socket) {
+  UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, socket.c_str(), sizeof(addr.sun_path) - 1);
+  if (::connect(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+    return UniqueFd();
+  }
+  return fd;
+}
+
+void SendRaw(int fd, const std::string& bytes) {
+  ASSERT_EQ(::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL),
+            static_cast<ssize_t>(bytes.size()));
+}
+
+// What the daemon sends until it closes the connection or `timeout` passes; *closed says which.
+std::string ReadUntilClosed(int fd, std::chrono::milliseconds timeout, bool* closed) {
+  std::string got;
+  *closed = false;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  char buf[4096];
+  while (std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(left.count(), 1))) <= 0) continue;
+    const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    if (n <= 0) {
+      *closed = true;
+      break;
+    }
+    got.append(buf, static_cast<size_t>(n));
+  }
+  return got;
+}
+
+// The control protocol per client: a command split across writes is one command; a request
+// without an end of line is bounded in length and in time.
+TEST(Daemon, ControlRequestsAreLineBufferedBoundedAndTimedOut) {
+  DaemonProcess daemon("ctlproto", "rate=realtime&loop=1");
+  daemon.Start();
+  {
+    UniqueFd c = ConnectRaw(daemon.socket());
+    ASSERT_TRUE(c.valid());
+    SendRaw(c.get(), "sta");
+    std::this_thread::sleep_for(200ms);
+    SendRaw(c.get(), "tus\n");
+    bool closed = false;
+    const std::string reply = ReadUntilClosed(c.get(), 5s, &closed);
+    EXPECT_TRUE(closed);
+    const json j = json::parse(reply, nullptr, false);
+    EXPECT_TRUE(j.value("ok", false)) << reply;
+    EXPECT_EQ(j.value("state", ""), "idle") << reply;
+  }
+  {
+    UniqueFd c = ConnectRaw(daemon.socket());
+    ASSERT_TRUE(c.valid());
+    SendRaw(c.get(), std::string(4096, 'x'));
+    bool closed = false;
+    const std::string reply = ReadUntilClosed(c.get(), 5s, &closed);
+    EXPECT_TRUE(closed);
+    EXPECT_NE(reply.find("longer than"), std::string::npos) << reply;
+  }
+  {
+    // An idle client is closed after the idle timeout (5 s), one with half a line too.
+    UniqueFd idle = ConnectRaw(daemon.socket());
+    UniqueFd half = ConnectRaw(daemon.socket());
+    ASSERT_TRUE(idle.valid() && half.valid());
+    SendRaw(half.get(), "pi");
+    bool closed = false;
+    ReadUntilClosed(idle.get(), 8s, &closed);
+    EXPECT_TRUE(closed) << "an idle client was held beyond the timeout";
+    const std::string reply = ReadUntilClosed(half.get(), 2s, &closed);
+    EXPECT_TRUE(closed);
+    EXPECT_NE(reply.find("no end of line"), std::string::npos) << reply;
+  }
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// More clients than the cap are answered "busy" and closed; the held ones time out and the
+// daemon serves again.
+TEST(Daemon, ClientsBeyondTheCapAreRefused) {
+  DaemonProcess daemon("ctlcap", "rate=realtime&loop=1");
+  daemon.Start();
+  std::vector<UniqueFd> held;
+  for (int i = 0; i < 48; ++i) held.push_back(ConnectRaw(daemon.socket()));
+  int busy = 0;
+  for (const UniqueFd& c : held) {
+    ASSERT_TRUE(c.valid());
+    pollfd p{c.get(), POLLIN, 0};
+    if (::poll(&p, 1, 50) <= 0) continue;
+    char buf[256];
+    const ssize_t n = ::recv(c.get(), buf, sizeof(buf), 0);
+    if (n > 0 && std::string(buf, static_cast<size_t>(n)).find("busy") != std::string::npos) ++busy;
+  }
+  EXPECT_GE(busy, 48 - 32);
+  held.clear();
+  EXPECT_TRUE(daemon.Command("ping").value("ok", false));
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
+// CPU seconds the process's main thread (the event loop) has used.
+double LoopCpuSeconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::istringstream fields(stat.substr(stat.rfind(')') + 2));
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> field; ++i) {
+    if (i == 14 || i == 15) ticks += std::stod(field);  // utime, stime.
+  }
+  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+// At the fd limit accept() fails with EMFILE while the connection stays pending: the loop
+// backs off instead of spinning (it spun at 92 % CPU), and serves again once fds are free.
+TEST(Daemon, FdLimitOnAcceptBacksOffWithoutSpinning) {
+  DaemonProcess daemon("emfile", "rate=realtime&loop=1");
+  daemon.Start();
+  const fs::path fd_dir = "/proc/" + std::to_string(daemon.pid()) + "/fd";
+  const auto open_fds = std::distance(fs::directory_iterator(fd_dir), fs::directory_iterator());
+  rlimit normal{};
+  ASSERT_EQ(::prlimit(daemon.pid(), RLIMIT_NOFILE, nullptr, &normal), 0) << std::strerror(errno);
+  const rlimit limit{static_cast<rlim_t>(open_fds + 2), normal.rlim_max};
+  ASSERT_EQ(::prlimit(daemon.pid(), RLIMIT_NOFILE, &limit, nullptr), 0) << std::strerror(errno);
+  std::vector<UniqueFd> clients;
+  for (int i = 0; i < 6; ++i) clients.push_back(ConnectRaw(daemon.socket()));
+  std::this_thread::sleep_for(300ms);
+  const double cpu_before = LoopCpuSeconds(daemon.pid());
+  std::this_thread::sleep_for(2s);
+  const double cpu = LoopCpuSeconds(daemon.pid()) - cpu_before;
+  EXPECT_LT(cpu, 0.4) << "the event loop used " << cpu << " s of CPU in 2 s at the fd limit";
+  clients.clear();
+  ASSERT_EQ(::prlimit(daemon.pid(), RLIMIT_NOFILE, &normal, nullptr), 0) << std::strerror(errno);
+  bool answered = false;
+  for (int i = 0; i < 50 && !answered; ++i) {
+    try {
+      answered = daemon.Command("ping").value("ok", false);
+    } catch (const ControlError&) {
+      std::this_thread::sleep_for(100ms);
+    }
+  }
+  EXPECT_TRUE(answered) << daemon.log();
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+}
+
 TEST(Daemon, MissingGpioChipIsReportedWithTheChip) {
   DaemonProcess daemon("nogpio", "rate=max",
                        "[trigger]\ngpio_chip = \"gpiochip-monomesh-absent\"\ngpio_line = \"4\"\n");
@@ -159,15 +409,6 @@ TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
   std::string log;
   EXPECT_NE(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 0);
   EXPECT_NE(log.find("/nonexistent/cam"), std::string::npos) << log;
-}
-
-// A copy of the bundled dataset the test may move away and back.
-fs::path CopyOfBundledData(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::copy(kData, dir, fs::copy_options::recursive);
-  return dir;
 }
 
 // Rotation only (homography warps K R K^-1 of one keyframe, up to 9 deg of yaw, ~90 px of image
