@@ -21,7 +21,7 @@ done
 # report.json through the typed reader (monomesh report: entry/'s ReadEntryReport).
 brief=$("$MONOMESH" report "$entry") || fail "monomesh report cannot read report.json"
 field() { printf '%s\n' "$brief" | sed -n "s/^$1 //p"; }
-[[ "$(field scale)" == "up to scale"* ]] || fail "report.json lacks the scale note"
+[[ "$(field scale)" == "none (up to scale"* ]] || fail "report.json does not say the entry is up to scale"
 vertices=$(field mesh_vertices)
 triangles=$(field mesh_triangles)
 points=$(field points)
