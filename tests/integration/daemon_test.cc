@@ -364,6 +364,12 @@ double LoopCpuSeconds(pid_t pid) {
 // At the fd limit accept() fails with EMFILE while the connection stays pending: the loop
 // backs off instead of spinning (it spun at 92 % CPU), and serves again once fds are free.
 TEST(Daemon, FdLimitOnAcceptBacksOffWithoutSpinning) {
+  // UBSan's vptr check probes the object's memory through a pipe of its own (libsanitizer's
+  // IsAccessibleMemoryRange), which cannot open at the fd limit: it then calls every virtual
+  // call an invalid vptr and halts the daemon. The default build runs this test.
+  if (std::getenv("UBSAN_OPTIONS") != nullptr) {
+    GTEST_SKIP() << "UBSan's vptr check needs a free descriptor";
+  }
   DaemonProcess daemon("emfile", "rate=realtime&loop=1");
   daemon.Start();
   const fs::path fd_dir = "/proc/" + std::to_string(daemon.pid()) + "/fd";
