@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "tests/support/run_command.h"
+#include "tests/support/temp_dir.h"
 #include "tests/support/shared_data.h"
 
 namespace mm::test {
@@ -23,13 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_eval_captures_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return FreshTempDir("eval_captures_" + name); }
 
 // The worker's time is fixed (0.3 s of video for A's SIFT or one reconstruction; measured
 // 0.07-0.3 s unloaded on this machine), so that a loaded test machine sees the same captures.

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "tests/support/run_command.h"
+#include "tests/support/temp_dir.h"
 #include "tests/support/shared_data.h"
 
 namespace mm::test {
@@ -18,13 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_eval_scale_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return FreshTempDir("eval_scale_" + name); }
 
 json Eval(const std::string& args, const fs::path& json_file) {
   int status = 0;
