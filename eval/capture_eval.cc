@@ -4,9 +4,9 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "base/clock.h"
 #include "calib/undistort.h"
 #include "dataset/tum.h"
 #include "entry/json_text.h"
@@ -17,17 +17,6 @@ namespace mm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-cv::Mat Gray(const cv::Mat& image) {
-  if (image.type() == CV_8UC1) return image;
-  cv::Mat gray;
-  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  return gray;
-}
 
 // The key a failure is counted under: the two-view failure's name for a refused B, else how
 // the capture ended.
@@ -159,7 +148,7 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
       current.time_a_s = t;
       current.image_a = frames[i].path.filename().string();
       image_a = undistorted.clone();
-      session.Start(Gray(undistorted), t);
+      session.Start(ToGray(undistorted), t);
       const auto start = Clock::now();
       features_a = ExtractKeyframeFeatures(image_a, options.pair);
       worker_free_at = t + latency(SecondsSince(start));
@@ -170,7 +159,7 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
     // 3. The gate on this frame.
     const bool can_submit = !pending && t >= worker_free_at;
     const CaptureSession::Step step =
-        session.OnFrame(Gray(undistorted), static_cast<uint64_t>(i), t, can_submit);
+        session.OnFrame(ToGray(undistorted), static_cast<uint64_t>(i), t, can_submit);
     if (options.log_gate) {
       const GateDecision& d = session.last_decision();
       char line[400];

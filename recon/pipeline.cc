@@ -6,21 +6,12 @@
 #include <map>
 #include <opencv2/imgproc.hpp>
 
+#include "base/clock.h"
+
 namespace mm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-cv::Mat ToGray(const cv::Mat& image) {
-  if (image.type() == CV_8UC1) return image;
-  cv::Mat gray;
-  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  return gray;
-}
 
 // Appends the tracks that are not a SIFT match already (no matched A pixel within
 // `duplicate_px`; a uniform grid of that cell size finds the neighbours).
@@ -56,6 +47,13 @@ void AppendTracks(std::span<const TrackCorrespondence> tracks, double duplicate_
 }
 
 }  // namespace
+
+cv::Mat ToGray(const cv::Mat& image) {
+  if (image.type() == CV_8UC1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  return gray;
+}
 
 std::string PairOptions::Check() const {
   for (const std::string& problem :

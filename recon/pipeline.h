@@ -71,6 +71,9 @@ struct PairReconstruction {
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options);
 
+/// 8-bit gray of a BGR8 or GRAY8 image (a GRAY8 image is returned as it is, not copied).
+cv::Mat ToGray(const cv::Mat& image);
+
 /// Expresses the pair in other units: the translation, the points, the mesh vertices and the
 /// voxel size times `metres_per_unit` (e.g. metres from scale/metric_scale.h; rotations,
 /// pixels and angles keep). After it, |translation| is the baseline in the new units.

@@ -9,14 +9,12 @@
 #include <opencv2/core/eigen.hpp>
 #include <utility>
 
+#include "base/clock.h"
+
 namespace mm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;

@@ -18,7 +18,6 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <opencv2/imgproc.hpp>
 #include <thread>
 #include <vector>
 
@@ -313,7 +312,6 @@ class Daemon {
   void EndCapture(const std::string& error);
   void AddFd(int fd);
   Trigger* FindTrigger(int fd) const;
-  static cv::Mat Gray(const cv::Mat& image);
   static double NowSeconds();  // The session's clock (steady).
 
   const DaemonConfig& config_;
@@ -555,7 +553,7 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   keyframe_a_ = std::move(latest);
   undistorted_a_ = undistorted;
   last_tracked_sequence_ = keyframe_a_->sequence;
-  const int corners = session_.Start(Gray(undistorted_a_), NowSeconds());
+  const int corners = session_.Start(ToGray(undistorted_a_), NowSeconds());
   worker_->Prepare(captures_, undistorted_a_);
   spdlog::info("capture {} ({}): keyframe A = frame {} ({}), {} corners to track", captures_,
                origin, keyframe_a_->sequence, keyframe_a_->source_id, corners);
@@ -565,13 +563,6 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
 
 double Daemon::NowSeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-cv::Mat Daemon::Gray(const cv::Mat& image) {
-  if (image.type() == CV_8UC1) return image;
-  cv::Mat gray;
-  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  return gray;
 }
 
 void Daemon::EndCapture(const std::string& error) {

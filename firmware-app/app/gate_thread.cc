@@ -2,8 +2,6 @@
 
 #include <unistd.h>
 
-#include <opencv2/imgproc.hpp>
-
 namespace mm {
 
 GateThread::GateThread(const Undistorter& undistorter, CaptureSession* session, int done_fd)
@@ -60,9 +58,7 @@ void GateThread::Run() {
     }
     try {
       tracked.undistorted = undistorter_.Apply(tracked.frame->image);
-      cv::Mat gray = tracked.undistorted;
-      if (gray.type() != CV_8UC1) cv::cvtColor(tracked.undistorted, gray, cv::COLOR_BGR2GRAY);
-      tracked.decision = session_->Track(gray);
+      tracked.decision = session_->Track(ToGray(tracked.undistorted));
     } catch (const std::exception& e) {
       // A frame that does not fit the calibration (cv::Exception), or the gate failing on it:
       // the loop ends the capture with this error; the thread serves the next one.
