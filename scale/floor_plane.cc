@@ -26,7 +26,8 @@ bool Refit(std::span<const Eigen::Vector3d> points, const std::vector<int>& inli
   for (int i : inliers) centroid += points[i];
   centroid /= static_cast<double>(inliers.size());
   Eigen::MatrixXd centred(inliers.size(), 3);
-  for (size_t k = 0; k < inliers.size(); ++k) centred.row(k) = (points[inliers[k]] - centroid).transpose();
+  for (size_t k = 0; k < inliers.size(); ++k)
+    centred.row(k) = (points[inliers[k]] - centroid).transpose();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
   Eigen::Vector3d n = svd.matrixV().col(2);
   if (n.dot(up) < 0) n = -n;
@@ -67,7 +68,8 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
     if (points_in_cam[i].dot(up) < 0) below.push_back(i);
   }
   if (static_cast<int>(below.size()) < std::max(3, options.min_inliers)) {
-    out.why_not = "too few points below the camera for a floor (" + std::to_string(below.size()) + ")";
+    out.why_not =
+        "too few points below the camera for a floor (" + std::to_string(below.size()) + ")";
     return out;
   }
   std::mt19937 rng(options.seed);
@@ -87,8 +89,8 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
     if (normal.dot(up) < cos_max) continue;
     const double d = -normal.dot(points_in_cam[i]);
     if (!(d > 0)) continue;  // The camera is not above it.
-    const int support = static_cast<int>(
-        Inliers(points_in_cam, normal, d, options.inlier_distance_rel * d).size());
+    const int support =
+        static_cast<int>(Inliers(points_in_cam, normal, d, options.inlier_distance_rel * d).size());
     if (support >= options.min_inliers) candidates.push_back({normal, d, support});
   }
   if (candidates.empty()) {
@@ -139,7 +141,8 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
   out.normal = plane.normal;
   out.distance = plane.distance;
   out.inliers = static_cast<int>(inliers.size());
-  out.rms_residual = inliers.empty() ? 0.0 : std::sqrt(sum_sq / static_cast<double>(inliers.size()));
+  out.rms_residual =
+      inliers.empty() ? 0.0 : std::sqrt(sum_sq / static_cast<double>(inliers.size()));
   out.normal_angle_deg = std::acos(std::clamp(plane.normal.dot(up), -1.0, 1.0)) * 180.0 / kPi;
   return out;
 }

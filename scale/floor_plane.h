@@ -36,14 +36,14 @@ struct FloorPlaneOptions {
 
 struct FloorPlane {
   bool found = false;
-  std::string why_not;                 ///< When not found.
+  std::string why_not;  ///< When not found.
   /// n . X + d = 0 in camera A's frame, n unit and pointing up (towards the camera), d > 0:
   /// the camera centre's distance from the plane in reconstruction units.
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   double distance = 0.0;
   int inliers = 0;
-  double rms_residual = 0.0;           ///< Of the inliers, in reconstruction units.
-  double normal_angle_deg = 0.0;       ///< Between the normal and the expected up direction.
+  double rms_residual = 0.0;      ///< Of the inliers, in reconstruction units.
+  double normal_angle_deg = 0.0;  ///< Between the normal and the expected up direction.
 };
 
 /// `points_in_cam`: reconstructed points in the camera's frame (x right, y down, z forward);

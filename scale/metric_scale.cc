@@ -42,7 +42,8 @@ std::optional<ScaleSource> ParseScaleSource(const std::string& name) {
 }
 
 std::string ScaleOptions::Check() const {
-  if (!(camera_height_m >= 0 && camera_height_m < 100)) return "camera_height_m: must be in [0, 100)";
+  if (!(camera_height_m >= 0 && camera_height_m < 100))
+    return "camera_height_m: must be in [0, 100)";
   if (!(std::abs(camera_pitch_deg) <= 90)) return "camera_pitch_deg: must be in [-90, 90]";
   if (!(min_baseline_m >= 0 && min_baseline_m < 100)) return "min_baseline_m: must be in [0, 100)";
   if (!(max_disagreement_rel > 0 && max_disagreement_rel <= 1)) {
@@ -63,10 +64,10 @@ ScaleEstimate EstimateScale(const ScaleInputs& inputs, const ScaleOptions& optio
   }
   const bool want_odometry =
       options.source == ScaleSource::kOdometry || options.source == ScaleSource::kAuto;
-  const bool want_floor = options.camera_height_m > 0 &&
-                          (options.source == ScaleSource::kFloor ||
-                           options.source == ScaleSource::kAuto ||
-                           options.source == ScaleSource::kOdometry);  // As the cross-check.
+  const bool want_floor =
+      options.camera_height_m > 0 &&
+      (options.source == ScaleSource::kFloor || options.source == ScaleSource::kAuto ||
+       options.source == ScaleSource::kOdometry);  // As the cross-check.
 
   double odometry_sigma = 0.0;
   if (want_odometry) {
@@ -88,10 +89,11 @@ ScaleEstimate EstimateScale(const ScaleInputs& inputs, const ScaleOptions& optio
   }
   double floor_sigma = 0.0;
   if (want_floor) {
-    out.floor = FitFloorPlane(inputs.points_in_a, UpInCamera(options.camera_pitch_deg),
-                              options.floor);
+    out.floor =
+        FitFloorPlane(inputs.points_in_a, UpInCamera(options.camera_pitch_deg), options.floor);
     if (!out.floor.found) {
-      if (options.source != ScaleSource::kOdometry) AppendWhy(&out.why_not, "floor: " + out.floor.why_not);
+      if (options.source != ScaleSource::kOdometry)
+        AppendWhy(&out.why_not, "floor: " + out.floor.why_not);
     } else {
       out.floor_metres_per_unit = options.camera_height_m / out.floor.distance;
       // The plane's offset is known to rms / sqrt(inliers); the height to its own sigma.
@@ -104,9 +106,8 @@ ScaleEstimate EstimateScale(const ScaleInputs& inputs, const ScaleOptions& optio
   const bool have_odometry = out.odometry_metres_per_unit > 0;
   const bool have_floor = out.floor_metres_per_unit > 0;
   if (have_odometry && have_floor) {
-    const double disagreement =
-        std::abs(out.floor_metres_per_unit - out.odometry_metres_per_unit) /
-        out.odometry_metres_per_unit;
+    const double disagreement = std::abs(out.floor_metres_per_unit - out.odometry_metres_per_unit) /
+                                out.odometry_metres_per_unit;
     if (disagreement > options.max_disagreement_rel) {
       AppendWhy(&out.why_not, "odometry (" + Fixed(out.odometry_metres_per_unit, 4) +
                                   " m/unit) and floor (" + Fixed(out.floor_metres_per_unit, 4) +

@@ -45,8 +45,8 @@ struct ScaleInputs {
   std::optional<Eigen::Vector3d> odometry_a_m;
   std::optional<Eigen::Vector3d> odometry_b_m;
   std::string odometry_why_not;
-  double baseline_units = 1.0;                    ///< |c_B - c_A| in the reconstruction.
-  std::span<const Eigen::Vector3d> points_in_a;   ///< Units of the reconstruction.
+  double baseline_units = 1.0;                   ///< |c_B - c_A| in the reconstruction.
+  std::span<const Eigen::Vector3d> points_in_a;  ///< Units of the reconstruction.
 };
 
 struct ScaleEstimate {

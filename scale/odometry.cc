@@ -17,7 +17,8 @@ std::string_view NextToken(std::string_view* rest) {
     return {};
   }
   const size_t end = rest->find_first_of(" \t\r\n", begin);
-  const std::string_view token = rest->substr(begin, end == std::string_view::npos ? rest->size() - begin : end - begin);
+  const std::string_view token =
+      rest->substr(begin, end == std::string_view::npos ? rest->size() - begin : end - begin);
   *rest = end == std::string_view::npos ? std::string_view{} : rest->substr(end);
   return token;
 }
@@ -39,7 +40,8 @@ std::string Seconds(double s) {
 }  // namespace
 
 std::optional<OdometrySample> ParseOdometryLine(std::string_view line, std::string* error) {
-  static constexpr std::array<const char*, 8> kFields = {"T", "X", "Y", "Z", "QX", "QY", "QZ", "QW"};
+  static constexpr std::array<const char*, 8> kFields = {"T",  "X",  "Y",  "Z",
+                                                         "QX", "QY", "QZ", "QW"};
   std::array<double, 8> v{};
   size_t n = 0;
   std::string_view rest = line;
@@ -76,9 +78,8 @@ std::optional<OdometrySample> ParseOdometryLine(std::string_view line, std::stri
 }
 
 void OdometryTrack::Add(const OdometrySample& sample) {
-  const auto it = std::lower_bound(
-      samples_.begin(), samples_.end(), sample.time_s,
-      [](const OdometrySample& s, double t) { return s.time_s < t; });
+  const auto it = std::lower_bound(samples_.begin(), samples_.end(), sample.time_s,
+                                   [](const OdometrySample& s, double t) { return s.time_s < t; });
   if (it != samples_.end() && it->time_s == sample.time_s) {
     *it = sample;
   } else {
@@ -99,15 +100,15 @@ std::optional<Eigen::Vector3d> OdometryTrack::PositionAt(double time_s,
         time_s <= samples_.front().time_s ? samples_.front() : samples_.back();
     const double age = std::abs(time_s - nearest.time_s);
     if (age > options.max_age_s) {
-      *why_not = "the nearest odometry is " + Seconds(age) + " s from the keyframe (max_odom_age_s " +
-                 Seconds(options.max_age_s) + ")";
+      *why_not = "the nearest odometry is " + Seconds(age) +
+                 " s from the keyframe (max_odom_age_s " + Seconds(options.max_age_s) + ")";
       return std::nullopt;
     }
     return nearest.position_m;
   }
-  const auto after = std::lower_bound(
-      samples_.begin(), samples_.end(), time_s,
-      [](const OdometrySample& s, double t) { return s.time_s < t; });
+  const auto after =
+      std::lower_bound(samples_.begin(), samples_.end(), time_s,
+                       [](const OdometrySample& s, double t) { return s.time_s < t; });
   const auto before = std::prev(after);
   const double gap = after->time_s - before->time_s;
   if (gap > options.max_gap_s) {

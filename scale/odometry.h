@@ -18,7 +18,7 @@
 namespace mm {
 
 struct OdometrySample {
-  double time_s = 0.0;                 ///< On the clock the keyframe times are given in.
+  double time_s = 0.0;  ///< On the clock the keyframe times are given in.
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   std::optional<Eigen::Quaterniond> orientation;  ///< Unit quaternion when given.
 };

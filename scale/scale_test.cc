@@ -92,8 +92,10 @@ std::vector<Eigen::Vector3d> Room(double height_m, double pitch_deg, double metr
   std::normal_distribution<double> noise(0.0, noise_m);
   // World: x right, y up, z forward; camera at (0, height, 0).
   std::vector<Eigen::Vector3d> world;
-  for (int i = 0; i < 200; ++i) world.emplace_back(1.5 * u(rng), 0.0, 3.0 + 1.5 * u(rng));  // Floor.
-  for (int i = 0; i < 300; ++i) world.emplace_back(0.4 * u(rng) + 0.3, 0.75, 2.0 + 0.3 * u(rng));  // Table.
+  for (int i = 0; i < 200; ++i)
+    world.emplace_back(1.5 * u(rng), 0.0, 3.0 + 1.5 * u(rng));  // Floor.
+  for (int i = 0; i < 300; ++i)
+    world.emplace_back(0.4 * u(rng) + 0.3, 0.75, 2.0 + 0.3 * u(rng));                  // Table.
   for (int i = 0; i < 300; ++i) world.emplace_back(-1.6, 1.2 + u(rng), 3.0 + u(rng));  // Walls.
   for (int i = 0; i < 300; ++i) world.emplace_back(u(rng), 1.2 + u(rng), 5.0);
   const double p = pitch_deg * M_PI / 180.0;
@@ -129,7 +131,8 @@ TEST(FloorPlane, NoHorizontalPlaneBelowTheCameraIsReported) {
   const FloorPlane floor = FitFloorPlane(walls, UpInCamera(0.0));
   EXPECT_FALSE(floor.found);
   EXPECT_NE(floor.why_not.find("no horizontal plane"), std::string::npos) << floor.why_not;
-  EXPECT_FALSE(FitFloorPlane(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d::Zero()), UpInCamera(0)).found);
+  EXPECT_FALSE(
+      FitFloorPlane(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d::Zero()), UpInCamera(0)).found);
 }
 
 TEST(MetricScale, OdometryGivesTheBaselineInMetres) {

@@ -13,8 +13,8 @@
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -28,9 +28,9 @@ namespace mm {
 struct TrackedFrame {
   uint64_t capture_id = 0;  ///< The capture the frame was posted for.
   FramePtr frame;
-  cv::Mat undistorted;      ///< What the gate saw (colour, as the reconstruction wants it).
+  cv::Mat undistorted;  ///< What the gate saw (colour, as the reconstruction wants it).
   GateDecision decision;
-  std::string error;        ///< Set when the frame could not be undistorted (no decision).
+  std::string error;  ///< Set when the frame could not be undistorted (no decision).
 };
 
 class GateThread {
@@ -58,10 +58,10 @@ class GateThread {
   int done_fd_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
-  bool stop_ = false;                  // Guarded by mutex_.
+  bool stop_ = false;                   // Guarded by mutex_.
   std::optional<TrackedFrame> posted_;  // Not yet started; guarded by mutex_.
-  bool running_ = false;               // A frame is being tracked; guarded by mutex_.
-  std::optional<TrackedFrame> done_;   // Guarded by mutex_.
+  bool running_ = false;                // A frame is being tracked; guarded by mutex_.
+  std::optional<TrackedFrame> done_;    // Guarded by mutex_.
   std::thread thread_;                  // Last: starts after the members it uses.
 };
 

@@ -10,8 +10,8 @@
 #include <string>
 
 #include "tests/support/run_command.h"
-#include "tests/support/temp_dir.h"
 #include "tests/support/shared_data.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm::test {
 namespace {
@@ -35,7 +35,8 @@ TEST(EvalScale, TumKeyframesFromOdometryWithCentimetreNoise) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   const fs::path data = RequireSharedData("tum_fr3_long_office_household");
   const fs::path dir = TempDir("tum");
-  const std::string common = "--dataset " + data.string() + " --calib " MM_SOURCE_DIR
+  const std::string common = "--dataset " + data.string() +
+                             " --calib " MM_SOURCE_DIR
                              "/data/tum_office/calib.toml --list keyframes_1hz.txt --scale "
                              "odometry --odom-seed 1 ";
   const json noisy = Eval(common + "--odom-noise-m 0.01", dir / "noisy.json");
