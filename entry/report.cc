@@ -115,7 +115,14 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
                    .mesh_triangles = r.mesh.triangles.size(),
                    .mesh_dropped_depth_discontinuity = r.mesh_summary.dropped_depth_discontinuity,
                    .mesh_dropped_grazing_angle = r.mesh_summary.dropped_grazing_angle};
-  report.meshing = {.voxel_size = r.mesh_summary.voxel_size,
+  report.meshing = {.mode = MeshModeName(r.mesh_mode),
+                    .dense_valid_fraction = r.dense_valid_fraction,
+                    .dense_planes = r.dense_planes,
+                    .dense_dropped_no_depth = r.dense_mesh_summary.dropped_no_depth,
+                    .dense_dropped_bridging = r.dense_mesh_summary.dropped_bridging,
+                    .dense_dropped_discontinuity = r.dense_mesh_summary.dropped_discontinuity,
+                    .dense_fallback_reason = r.dense_failure_reason,
+                    .voxel_size = r.mesh_summary.voxel_size,
                     .occupied_cells = r.mesh_summary.occupied_cells,
                     .kept_cells = r.mesh_summary.kept_cells,
                     .delaunay_triangles = r.mesh_summary.delaunay_triangles,
@@ -131,6 +138,7 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
   report.timings_s.features_b = r.times.features_b_s;
   report.timings_s.matching = r.times.matching_s;
   report.timings_s.geometry = r.times.geometry_s;
+  report.timings_s.dense = r.times.dense_s;
   report.timings_s.meshing = r.times.meshing_s;
   report.timings_s.total_recon = r.times.total_s();
   return report;
@@ -213,7 +221,14 @@ json ToJson(const EntryReport& r) {
                       {"mesh_dropped_depth_discontinuity", n.mesh_dropped_depth_discontinuity},
                       {"mesh_dropped_grazing_angle", n.mesh_dropped_grazing_angle}};
   const auto& m = r.meshing;
-  report["meshing"] = {{"voxel_size", m.voxel_size},
+  report["meshing"] = {{"mode", m.mode},
+                       {"dense_valid_fraction", m.dense_valid_fraction},
+                       {"dense_planes", m.dense_planes},
+                       {"dense_dropped_no_depth", m.dense_dropped_no_depth},
+                       {"dense_dropped_bridging", m.dense_dropped_bridging},
+                       {"dense_dropped_discontinuity", m.dense_dropped_discontinuity},
+                       {"dense_fallback_reason", m.dense_fallback_reason},
+                       {"voxel_size", m.voxel_size},
                        {"occupied_cells", m.occupied_cells},
                        {"kept_cells", m.kept_cells},
                        {"delaunay_triangles", m.delaunay_triangles},
@@ -226,7 +241,8 @@ json ToJson(const EntryReport& r) {
   const auto& ts = r.timings_s;
   report["timings_s"] = {{"features_a", ts.features_a}, {"features_b", ts.features_b},
                          {"matching", ts.matching},     {"geometry", ts.geometry},
-                         {"meshing", ts.meshing},       {"total_recon", ts.total_recon}};
+                         {"dense", ts.dense},           {"meshing", ts.meshing},
+                         {"total_recon", ts.total_recon}};
   if (ts.preview) report["timings_s"]["preview"] = *ts.preview;
   if (ts.encode) report["timings_s"]["encode"] = *ts.encode;
   if (r.preview) {
@@ -334,6 +350,13 @@ std::string FromJson(const json& j, EntryReport* out) {
     Read(n, "mesh_dropped_depth_discontinuity", &r.counts.mesh_dropped_depth_discontinuity);
     Read(n, "mesh_dropped_grazing_angle", &r.counts.mesh_dropped_grazing_angle);
     const json& m = Object(j, "meshing");
+    Read(m, "mode", &r.meshing.mode);
+    Read(m, "dense_valid_fraction", &r.meshing.dense_valid_fraction);
+    Read(m, "dense_planes", &r.meshing.dense_planes);
+    Read(m, "dense_dropped_no_depth", &r.meshing.dense_dropped_no_depth);
+    Read(m, "dense_dropped_bridging", &r.meshing.dense_dropped_bridging);
+    Read(m, "dense_dropped_discontinuity", &r.meshing.dense_dropped_discontinuity);
+    Read(m, "dense_fallback_reason", &r.meshing.dense_fallback_reason);
     Read(m, "voxel_size", &r.meshing.voxel_size);
     Read(m, "occupied_cells", &r.meshing.occupied_cells);
     Read(m, "kept_cells", &r.meshing.kept_cells);
@@ -350,6 +373,7 @@ std::string FromJson(const json& j, EntryReport* out) {
     Read(ts, "features_b", &r.timings_s.features_b);
     Read(ts, "matching", &r.timings_s.matching);
     Read(ts, "geometry", &r.timings_s.geometry);
+    Read(ts, "dense", &r.timings_s.dense);
     Read(ts, "meshing", &r.timings_s.meshing);
     Read(ts, "total_recon", &r.timings_s.total_recon);
     if (ts.contains("preview")) r.timings_s.preview = ts.at("preview").get<double>();

@@ -131,6 +131,15 @@ struct EntryReport {
   } counts;
 
   struct Meshing {
+    std::string mode = "sparse";  ///< The mesh the entry got: "dense" or "sparse".
+    /// Dense mode: the share of A with a dense depth, the sweep's planes, the dense mesh's
+    /// dropped triangles, and why the entry fell back to the sparse mesh (empty: it did not).
+    double dense_valid_fraction = 0.0;
+    int dense_planes = 0;
+    int dense_dropped_no_depth = 0;
+    int dense_dropped_bridging = 0;
+    int dense_dropped_discontinuity = 0;
+    std::string dense_fallback_reason;
     double voxel_size = 0.0;
     int occupied_cells = 0;
     int kept_cells = 0;
@@ -151,6 +160,7 @@ struct EntryReport {
     double features_b = 0.0;
     double matching = 0.0;
     double geometry = 0.0;
+    double dense = 0.0;
     double meshing = 0.0;
     double total_recon = 0.0;
     std::optional<double> preview;  ///< Only for an entry that was encoded.

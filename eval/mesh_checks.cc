@@ -63,6 +63,8 @@ MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const Rend
   }
   out.coverage = static_cast<double>(out.covered_pixels) / out.gt_pixels;
   if (!errors.empty()) {
+    const auto off = std::count_if(errors.begin(), errors.end(), [](double e) { return e > 0.10; });
+    out.flying = static_cast<double>(off) / static_cast<double>(errors.size());
     out.median_rel_err = QuantileOf(errors, 0.5);
     out.p90_rel_err = QuantileOf(std::move(errors), 0.9);
   }

@@ -80,6 +80,7 @@ MeshFigures MeshFiguresOf(const MeshDepthEval& e) {
   f.coverage = e.coverage;
   f.depth_rel_err_median = e.median_rel_err;
   f.depth_rel_err_p90 = e.p90_rel_err;
+  f.flying = e.flying;
   return f;
 }
 
@@ -111,17 +112,19 @@ EvalSummary Summarize(const std::vector<PairEval>& pairs) {
   s.time_after_b_median_s = Percentile(after_b, 50);
   s.cpu_median_s = Percentile(cpu, 50);
   s.cpu_after_b_median_s = Percentile(cpu_after_b, 50);
-  std::vector<double> mesh_cov, mesh_med, mesh_p90;
+  std::vector<double> mesh_cov, mesh_med, mesh_p90, mesh_flying;
   for (const PairEval& p : pairs) {
     if (!p.mesh.valid) continue;
     mesh_cov.push_back(p.mesh.coverage);
     mesh_med.push_back(p.mesh.depth_rel_err_median);
     mesh_p90.push_back(p.mesh.depth_rel_err_p90);
+    mesh_flying.push_back(p.mesh.flying);
   }
   s.mesh_pairs = static_cast<int>(mesh_cov.size());
   s.mesh_coverage = Percentile(mesh_cov, 50);
   s.mesh_depth_rel_err_median = Percentile(mesh_med, 50);
   s.mesh_depth_rel_err_p90 = Percentile(mesh_p90, 50);
+  s.mesh_flying = Percentile(mesh_flying, 50);
   std::vector<double> scale_err;
   for (const PairEval& p : pairs) {
     if (!p.success || !p.has_scale) continue;
@@ -292,6 +295,9 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
             cv::Mat depth_m;
             depth.convertTo(depth_m, CV_32F, 1.0 / 5000.0);  // TUM: depth[m] = value / 5000.
             p.mesh = MeshFiguresOf(EvaluatePairMesh(r, used->K(), depth_m));
+            p.mesh.mode = MeshModeName(r.mesh_mode);
+            p.mesh.vertices = static_cast<int>(r.mesh.vertices.size());
+            p.mesh.triangles = static_cast<int>(r.mesh.triangles.size());
           }
         }
       }
@@ -316,11 +322,11 @@ std::string FormatPairLine(const PairEval& p) {
   std::snprintf(buf, sizeof(buf),
                 "pair %2d-%-2d %-4s rot %6.3f deg  trans %6.3f deg  inliers %4d  points %4d  "
                 "angle %5.2f deg  time %.3f s (after B %.3f s: sift %.3f match %.3f geom %.3f "
-                "mesh %.3f; CPU %.3f / %.3f s)",
+                "dense %.3f mesh %.3f; CPU %.3f / %.3f s)",
                 p.index_a, p.index_b, p.success ? "ok" : "FAIL", p.rot_err_deg, p.trans_err_deg,
                 p.inliers, p.points, p.median_triangulation_angle_deg, p.time_two_images_s,
                 p.time_after_b_s, p.times.features_b_s, p.times.matching_s, p.times.geometry_s,
-                p.times.meshing_s, p.cpu_two_images_s, p.cpu_after_b_s);
+                p.times.dense_s, p.times.meshing_s, p.cpu_two_images_s, p.cpu_after_b_s);
   std::string line = buf;
   if (p.has_depth) {
     std::snprintf(buf, sizeof(buf), "  depth err %.2f %% (%.1f %% within 10 %%, %d pts)",
@@ -328,9 +334,12 @@ std::string FormatPairLine(const PairEval& p) {
     line += buf;
   }
   if (p.mesh.valid) {
-    std::snprintf(buf, sizeof(buf), "  mesh: coverage %.1f %%, depth err %.2f %% (p90 %.1f %%)",
-                  100 * p.mesh.coverage, 100 * p.mesh.depth_rel_err_median,
-                  100 * p.mesh.depth_rel_err_p90);
+    std::snprintf(buf, sizeof(buf),
+                  "  mesh %s (%d vertices): coverage %.1f %%, depth err %.2f %% (p90 %.1f %%, "
+                  "flying %.1f %%)",
+                  p.mesh.mode.c_str(), p.mesh.vertices, 100 * p.mesh.coverage,
+                  100 * p.mesh.depth_rel_err_median, 100 * p.mesh.depth_rel_err_p90,
+                  100 * p.mesh.flying);
     line += buf;
   }
   if (p.has_scale) {
@@ -367,10 +376,10 @@ std::string FormatSummary(const EvalSummary& s) {
   }
   if (s.mesh_pairs > 0) {
     std::snprintf(buf, sizeof(buf),
-                  "  mesh depth        coverage %.1f %%, error median %.2f %%, p90 %.1f %% over "
-                  "%d pair(s)\n",
+                  "  mesh depth        coverage %.1f %%, error median %.2f %%, p90 %.1f %%, "
+                  "flying %.1f %% over %d pair(s)\n",
                   100 * s.mesh_coverage, 100 * s.mesh_depth_rel_err_median,
-                  100 * s.mesh_depth_rel_err_p90, s.mesh_pairs);
+                  100 * s.mesh_depth_rel_err_p90, 100 * s.mesh_flying, s.mesh_pairs);
     out += buf;
   }
   if (s.scale_pairs > 0) {
@@ -413,6 +422,7 @@ std::string EvalToJson(const EvalResult& result) {
     summary["mesh"] = {{"coverage", s.mesh_coverage},
                        {"depth_rel_err", {{"median", s.mesh_depth_rel_err_median},
                                           {"p90", s.mesh_depth_rel_err_p90}}},
+                       {"flying", s.mesh_flying},
                        {"pairs", s.mesh_pairs}};
   }
   json pairs = json::array();
@@ -440,6 +450,7 @@ std::string EvalToJson(const EvalResult& result) {
                 {"features_b", p.times.features_b_s},
                 {"matching", p.times.matching_s},
                 {"geometry", p.times.geometry_s},
+                {"dense", p.times.dense_s},
                 {"meshing", p.times.meshing_s},
                 {"geometry_split",
                  {{"ransac_f", p.geometry_times.ransac_f_s},
@@ -472,7 +483,11 @@ std::string EvalToJson(const EvalResult& result) {
     if (p.mesh.valid) {
       j["mesh"] = {{"coverage", p.mesh.coverage},
                    {"depth_rel_err", {{"median", p.mesh.depth_rel_err_median},
-                                      {"p90", p.mesh.depth_rel_err_p90}}}};
+                                      {"p90", p.mesh.depth_rel_err_p90}}},
+                   {"flying", p.mesh.flying},
+                   {"mode", p.mesh.mode},
+                   {"vertices", p.mesh.vertices},
+                   {"triangles", p.mesh.triangles}};
     }
     pairs.push_back(std::move(j));
   }

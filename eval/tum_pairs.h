@@ -27,6 +27,10 @@ struct MeshFigures {
   double coverage = 0.0;
   double depth_rel_err_median = 0.0;
   double depth_rel_err_p90 = 0.0;
+  double flying = 0.0;  ///< Share of covered pixels off by > 10 %.
+  std::string mode;     ///< The mesh the pair got: "dense" or "sparse".
+  int vertices = 0;
+  int triangles = 0;
 };
 
 struct EvalOptions {
@@ -91,6 +95,7 @@ struct EvalSummary {
   double mesh_coverage = 0;            ///< Median over those pairs.
   double mesh_depth_rel_err_median = 0;  ///< Median over those pairs of their medians.
   double mesh_depth_rel_err_p90 = 0;     ///< Median over those pairs of their p90s.
+  double mesh_flying = 0;               ///< Median over those pairs.
   int scale_pairs = 0;                 ///< Succeeded pairs the scale was asked of.
   int scaled_pairs = 0;                ///< Of those, scaled and with ground truth.
   double scale_rel_err_median = 0, scale_rel_err_p90 = 0;  ///< Over the scaled pairs.

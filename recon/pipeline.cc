@@ -55,9 +55,23 @@ cv::Mat ToGray(const cv::Mat& image) {
   return gray;
 }
 
+bool ParseMeshMode(std::string_view name, MeshMode* mode) {
+  if (name == "dense") {
+    *mode = MeshMode::kDense;
+  } else if (name == "sparse") {
+    *mode = MeshMode::kSparse;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+const char* MeshModeName(MeshMode mode) { return mode == MeshMode::kDense ? "dense" : "sparse"; }
+
 std::string PairOptions::Check() const {
-  for (const std::string& problem :
-       {sift.Check(), match.Check(), two_view.Check(), refinement.Check(), mesh.Check()}) {
+  for (const std::string& problem : {sift.Check(), match.Check(), two_view.Check(),
+                                     refinement.Check(), mesh.Check(), dense.Check(),
+                                     dense_mesh.Check()}) {
     if (!problem.empty()) return problem;
   }
   if (!(track_duplicate_px >= 0)) return "track_duplicate_px: must be >= 0";
@@ -144,11 +158,32 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
                                 &out.geometry);
   out.times.geometry_s = SecondsSince(start);
 
+  if (options.mesh_mode == MeshMode::kDense) {
+    start = Clock::now();
+    const DenseDepth depth =
+        ComputeDenseDepth(ToGray(image_a), gray_b, camera.K(), out.geometry.rotation,
+                          out.geometry.translation, out.geometry.points_in_cam_a, options.dense);
+    out.times.dense_s = SecondsSince(start);
+    out.dense_valid_fraction = depth.valid_fraction;
+    out.dense_planes = depth.planes;
+    start = Clock::now();
+    if (depth.success) {
+      out.mesh = BuildDenseMesh(depth, camera.K(), image_a.cols, image_a.rows, options.dense_mesh,
+                                &out.dense_mesh_summary);
+      if (out.mesh.triangles.empty()) out.dense_failure_reason = "dense mesh has no triangles";
+    } else {
+      out.dense_failure_reason = depth.failure_reason;
+    }
+    if (out.dense_failure_reason.empty()) out.mesh_mode = MeshMode::kDense;
+    out.times.meshing_s = SecondsSince(start);
+  }
   start = Clock::now();
-  out.mesh = BuildDelaunayMesh(out.geometry.points_in_cam_a, out.point_pixels_a, image_a.cols,
-                               image_a.rows, options.mesh, &out.mesh_summary);
+  if (out.mesh_mode == MeshMode::kSparse) {
+    out.mesh = BuildDelaunayMesh(out.geometry.points_in_cam_a, out.point_pixels_a, image_a.cols,
+                                 image_a.rows, options.mesh, &out.mesh_summary);
+  }
   if (image_a.type() == CV_8UC3) ColorVerticesFromTexture(image_a, &out.mesh);
-  out.times.meshing_s = SecondsSince(start);
+  out.times.meshing_s += SecondsSince(start);
   if (out.mesh.triangles.empty()) {
     out.failure_reason = "mesh has no triangles";
     return out;

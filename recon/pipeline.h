@@ -8,9 +8,12 @@
 
 #include <opencv2/core.hpp>
 #include <span>
+#include <string_view>
 #include <string>
 
 #include "calib/camera_model.h"
+#include "recon/dense.h"
+#include "recon/dense_mesh.h"
 #include "recon/features.h"
 #include "recon/mesh.h"
 #include "recon/point_refinement.h"
@@ -25,12 +28,23 @@ struct TrackCorrespondence {
   Eigen::Vector2d pixel_b;
 };
 
+/// Which mesh a pair gets: the dense one (recon/dense_mesh.h, from the dense depth of A) or the
+/// sparse one (recon/mesh.h, Delaunay of the triangulated points).
+enum class MeshMode { kDense, kSparse };
+
+/// "dense" / "sparse"; false for another name.
+bool ParseMeshMode(std::string_view name, MeshMode* mode);
+const char* MeshModeName(MeshMode mode);
+
 struct PairOptions {
   SiftOptions sift;
   MatchOptions match;
   TwoViewOptions two_view;
   PointRefinementOptions refinement;
-  MeshOptions mesh;
+  MeshMode mesh_mode = MeshMode::kDense;
+  MeshOptions mesh;            ///< The sparse mesh (and the fallback of the dense one).
+  DenseOptions dense;          ///< The dense depth (mesh_mode kDense).
+  DenseMeshOptions dense_mesh; ///< The dense mesh.
   /// Tracks join the SIFT matches as correspondences; a track whose A pixel lies within this
   /// of a matched SIFT keypoint in A is the same point twice and is left out.
   double track_duplicate_px = 2.0;
@@ -42,9 +56,10 @@ struct StageTimes {
   double features_b_s = 0;
   double matching_s = 0;
   double geometry_s = 0;  ///< Two-view geometry and the point refinement.
+  double dense_s = 0;    ///< The dense depth (mesh_mode kDense).
   double meshing_s = 0;
   [[nodiscard]] double total_s() const {
-    return features_a_s + features_b_s + matching_s + geometry_s + meshing_s;
+    return features_a_s + features_b_s + matching_s + geometry_s + dense_s + meshing_s;
   }
 };
 
@@ -61,8 +76,15 @@ struct PairReconstruction {
   std::vector<Eigen::Vector2d> point_pixels_a;  ///< Where each 3-D point was observed in A.
   std::vector<Eigen::Vector2d> point_pixels_b;  ///< Where each 3-D point was observed in B.
   PointRefinementSummary refinement;
+  /// The mesh the pair got: kDense only when the dense mesh has triangles, else the sparse one
+  /// (with the dense stage's failure in dense_failure_reason).
+  MeshMode mesh_mode = MeshMode::kSparse;
   Mesh mesh;
-  MeshSummary mesh_summary;
+  MeshSummary mesh_summary;            ///< The sparse mesh's (when it was built).
+  DenseMeshSummary dense_mesh_summary; ///< The dense mesh's.
+  double dense_valid_fraction = 0;     ///< Share of A (shrunk) with a dense depth.
+  int dense_planes = 0;
+  std::string dense_failure_reason;
   StageTimes times;
 };
 

@@ -188,6 +188,13 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
     r.Require(false, recon, "recon", key.c_str(), problem.substr(problem.find(':') + 2));
   }
 
+  const auto* mesh = r.Table("mesh", {"mode", "vertex_budget"});
+  std::string mode = MeshModeName(c.recon.mesh_mode);
+  r.Get(mesh, "mesh", "mode", &mode);
+  r.Require(ParseMeshMode(mode, &c.recon.mesh_mode), mesh, "mesh", "mode",
+            "'" + mode + "' is not a mesh mode (dense or sparse)");
+  r.GetNumber(mesh, "mesh", "vertex_budget", {16, 1000000}, &c.recon.dense_mesh.vertex_budget);
+
   // The gate applies the reconstruction's own tests (one notion of "enough parallax").
   c.gate.two_view = c.recon.two_view;
   if (const std::string problem = c.gate.Check(); !problem.empty()) {

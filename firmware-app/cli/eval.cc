@@ -45,6 +45,7 @@ struct EvalArgs {
   double timeout_s = CaptureSessionOptions{}.timeout_s;
   bool use_tracks = CaptureEvalOptions{}.use_tracks;
   double worker_latency_s = CaptureEvalOptions{}.worker_latency_s;
+  std::string mesh_mode = MeshModeName(EvalOptions{}.pair.mesh_mode);
   std::string scale_source = "none";
   double odom_noise_m = 0.0;
   unsigned odom_seed = EvalOptions{}.odom_seed;
@@ -130,6 +131,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.two_view.lo_ransac = args.lo_ransac;
   options.pair.refinement.enabled = args.refine_points;
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
+  ParseMeshMode(args.mesh_mode, &options.pair.mesh_mode);   // CLI11 checked the name.
   if (args.captures) return RunCaptureEval(args, camera, options.pair);
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
@@ -199,6 +201,10 @@ Runner AddEvalCommand(CLI::App& app) {
                   "Lucas-Kanade refinement of the points' observations in B (true / false)");
   cmd->add_option("--sift-impl", args->sift_impl, "SIFT implementation: opencv or own")
       ->check(CLI::IsMember({SiftImplName(SiftImpl::kOpenCv), SiftImplName(SiftImpl::kOwn)}));
+  cmd->add_option("--mesh-mode", args->mesh_mode,
+                  "The pair's mesh: dense (from the dense depth of A) or sparse (Delaunay of "
+                  "the triangulated points)")
+      ->check(CLI::IsMember({"dense", "sparse"}));
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   cmd->add_flag("--captures", args->captures,
                 "Play the sequence through the daemon's gate and worker and press capture");

@@ -13,7 +13,7 @@ namespace mm::cli {
 namespace {
 
 int RunRecon(const std::string& path_a, const std::string& path_b, const std::string& calib,
-             const std::string& out_dir) {
+             const std::string& out_dir, const std::string& mesh_mode) {
   const BouguetCamera camera = LoadCalibration(calib);
   cv::Mat images[2];
   const std::string paths[2] = {path_a, path_b};
@@ -36,8 +36,10 @@ int RunRecon(const std::string& path_a, const std::string& path_b, const std::st
     info[i].source = paths[i];
     images[i] = undistorter.Apply(images[i]);
   }
+  PairOptions options;
+  ParseMeshMode(mesh_mode, &options.mesh_mode);  // CLI11 checked the name.
   const PairJobResult result = RunPairJob(images[0], images[1], info[0], info[1],
-                                          undistorter.output_camera(), PairOptions{});
+                                          undistorter.output_camera(), options);
   if (!result.ok) {
     std::cerr << "monomesh recon: " << result.error << "\n";
     return 1;
@@ -64,6 +66,7 @@ Runner AddReconCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("recon", "Reconstruct a textured mesh from two images");
   struct Args {
     std::string image_a, image_b, calib, out_dir;
+    std::string mesh_mode = MeshModeName(PairOptions{}.mesh_mode);
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("A", args->image_a, "Keyframe A (texture source)")
@@ -74,9 +77,14 @@ Runner AddReconCommand(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", args->out_dir, "Output folder")->required();
+  cmd->add_option("--mesh-mode", args->mesh_mode,
+                  "The mesh: dense (from the dense depth of A) or sparse (Delaunay of the "
+                  "triangulated points)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"dense", "sparse"}));
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
-    return RunRecon(args->image_a, args->image_b, args->calib, args->out_dir);
+    return RunRecon(args->image_a, args->image_b, args->calib, args->out_dir, args->mesh_mode);
   };
 }
 

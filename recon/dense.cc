@@ -1,0 +1,399 @@
+#include "recon/dense.h"
+
+#include "recon/sgm.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+namespace mm {
+namespace {
+
+// Costs are (1 - ZNCC) in fixed point: 0..2 -> 0..2 * kCostScale. With eight paths the
+// aggregated sum stays below 8 * (2 kCostScale + P2) < 2^16.
+constexpr int kCostScale = 64;
+constexpr uint16_t kNeutralCost = kCostScale;  // ZNCC 0: no information.
+
+// The camera matrix of an image shrunk by `f` (pixel centres: u_s = (u + 0.5) / f - 0.5).
+Eigen::Matrix3d ShrinkK(const Eigen::Matrix3d& K, int f) {
+  Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
+  S(0, 0) = S(1, 1) = 1.0 / f;
+  S(0, 2) = S(1, 2) = 0.5 / f - 0.5;
+  return S * K;
+}
+
+// The homography taking A's pixels to B's for the plane z_a = 1 / rho (x_b = R x_a + t).
+Eigen::Matrix3d PlaneHomography(const Eigen::Matrix3d& K, const Eigen::Matrix3d& K_inv,
+                                const Eigen::Matrix3d& R, const Eigen::Vector3d& t, double rho) {
+  Eigen::Matrix3d M = R;
+  M.col(2) += t * rho;
+  return K * M * K_inv;
+}
+
+double Quantile(std::vector<double> v, double q) {
+  const size_t k = static_cast<size_t>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+// Median of the valid 3x3 neighbours of each valid pixel (removes single-pixel spikes of the
+// winner-take-all without moving edges).
+cv::Mat MedianOfValid(const cv::Mat& rho) {
+  cv::Mat out = rho.clone();
+  float values[9];
+  for (int y = 0; y < rho.rows; ++y) {
+    for (int x = 0; x < rho.cols; ++x) {
+      if (!(rho.at<float>(y, x) > 0)) continue;
+      int n = 0;
+      for (int yy = std::max(0, y - 1); yy <= std::min(rho.rows - 1, y + 1); ++yy) {
+        for (int xx = std::max(0, x - 1); xx <= std::min(rho.cols - 1, x + 1); ++xx) {
+          const float v = rho.at<float>(yy, xx);
+          if (v > 0) values[n++] = v;
+        }
+      }
+      std::nth_element(values, values + n / 2, values + n);
+      out.at<float>(y, x) = values[n / 2];
+    }
+  }
+  return out;
+}
+
+// Fills the holes (8-connected pixels without depth) of at most `max_pixels` that do not touch
+// the image border: each pass gives every hole pixel with a valid 8-neighbour the mean of
+// those neighbours, from the border of the hole inward. Filled pixels get `confidence`.
+void FillSmallHoles(int max_pixels, float filled_confidence, cv::Mat* rho, cv::Mat* confidence) {
+  if (max_pixels <= 0) return;
+  const cv::Mat holes = *rho <= 0;
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(holes, labels, stats, centroids, 8, CV_32S);
+  std::vector<uint8_t> fill(static_cast<size_t>(n), 0);
+  for (int i = 1; i < n; ++i) {
+    const int x = stats.at<int>(i, cv::CC_STAT_LEFT), y = stats.at<int>(i, cv::CC_STAT_TOP);
+    const int w = stats.at<int>(i, cv::CC_STAT_WIDTH), h = stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    const bool inside = x > 0 && y > 0 && x + w < rho->cols && y + h < rho->rows;
+    fill[static_cast<size_t>(i)] = inside && stats.at<int>(i, cv::CC_STAT_AREA) <= max_pixels;
+  }
+  std::vector<cv::Point> pending;
+  for (int y = 0; y < rho->rows; ++y) {
+    for (int x = 0; x < rho->cols; ++x) {
+      if (fill[static_cast<size_t>(labels.at<int>(y, x))] && labels.at<int>(y, x) > 0) {
+        pending.emplace_back(x, y);
+      }
+    }
+  }
+  std::vector<std::pair<cv::Point, float>> updates;
+  while (!pending.empty()) {
+    updates.clear();
+    std::vector<cv::Point> still;
+    for (const cv::Point& p : pending) {
+      float sum = 0;
+      int count = 0;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = p.x + dx, y = p.y + dy;
+          if (x < 0 || y < 0 || x >= rho->cols || y >= rho->rows) continue;
+          const float v = rho->at<float>(y, x);
+          if (v > 0) {
+            sum += v;
+            ++count;
+          }
+        }
+      }
+      if (count > 0) {
+        updates.emplace_back(p, sum / static_cast<float>(count));
+      } else {
+        still.push_back(p);
+      }
+    }
+    if (updates.empty()) break;
+    for (const auto& [p, v] : updates) {
+      rho->at<float>(p) = v;
+      confidence->at<float>(p) = filled_confidence;
+    }
+    pending.swap(still);
+  }
+}
+
+}  // namespace
+
+std::string DenseOptions::Check() const {
+  if (downscale < 1 || downscale > 8) return "dense.downscale must be in [1, 8]";
+  if (window_radius < 1 || window_radius > 10) return "dense.window_radius must be in [1, 10]";
+  if (!(plane_step_px > 0.1 && plane_step_px <= 10))
+    return "dense.plane_step_px must be in (0.1, 10]";
+  if (min_planes < 3 || max_planes < min_planes || max_planes > 256) {
+    return "dense.min_planes / max_planes must satisfy 3 <= min <= max <= 256";
+  }
+  if (!(near_margin >= 1 && near_margin <= 10) || !(far_margin >= 1 && far_margin <= 100)) {
+    return "dense.near_margin must be in [1, 10] and dense.far_margin in [1, 100]";
+  }
+  if (!(penalty_small >= 0 && penalty_large >= penalty_small && penalty_large <= 2)) {
+    return "dense penalties must satisfy 0 <= penalty_small <= penalty_large <= 2";
+  }
+  if (edge_tau < 0 || edge_tau > 255) return "dense.edge_tau must be in [0, 255]";
+  if (!(min_texture_std >= 0 && min_texture_std < 128))
+    return "dense.min_texture_std must be in [0, 128)";
+  if (!(min_zncc >= -1 && min_zncc <= 1)) return "dense.min_zncc must be in [-1, 1]";
+  if (!(min_confidence >= 0 && min_confidence < 1)) return "dense.min_confidence must be in [0, 1)";
+  if (!(max_speckle_fraction >= 0 && max_speckle_fraction < 1)) {
+    return "dense.max_speckle_fraction must be in [0, 1)";
+  }
+  if (speckle_planes < 0 || speckle_planes > 16) return "dense.speckle_planes must be in [0, 16]";
+  if (!(max_hole_fraction >= 0 && max_hole_fraction < 1)) {
+    return "dense.max_hole_fraction must be in [0, 1)";
+  }
+  return {};
+}
+
+DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const Eigen::Matrix3d& K,
+                             const Eigen::Matrix3d& rotation_b_from_a,
+                             const Eigen::Vector3d& translation_b_from_a,
+                             std::span<const Eigen::Vector3d> sparse_points_in_cam_a,
+                             const DenseOptions& options) {
+  DenseDepth out;
+  if (const std::string error = options.Check(); !error.empty()) {
+    out.failure_reason = error;
+    return out;
+  }
+  if (gray_a.empty() || gray_a.type() != CV_8UC1 || gray_b.type() != CV_8UC1 ||
+      gray_a.size() != gray_b.size()) {
+    out.failure_reason = "dense: keyframes must be 8-bit grey images of one size";
+    return out;
+  }
+  std::vector<double> rhos;
+  for (const Eigen::Vector3d& p : sparse_points_in_cam_a) {
+    if (p.z() > 0 && std::isfinite(p.z())) rhos.push_back(1.0 / p.z());
+  }
+  if (rhos.size() < 10) {
+    out.failure_reason = "dense: fewer than 10 sparse points in front of A for the depth range";
+    return out;
+  }
+  const double rho_max = Quantile(rhos, 0.98) * options.near_margin;
+  const double rho_min = Quantile(rhos, 0.02) / options.far_margin;
+
+  // Shrunk images and camera.
+  const int f = options.downscale;
+  cv::Mat a8 = gray_a, b8 = gray_b;
+  if (f > 1) {
+    const cv::Size size(gray_a.cols / f, gray_a.rows / f);
+    cv::resize(gray_a, a8, size, 0, 0, cv::INTER_AREA);
+    cv::resize(gray_b, b8, size, 0, 0, cv::INTER_AREA);
+  }
+  const int width = a8.cols, height = a8.rows;
+  const int r = options.window_radius;
+  if (width < 4 * r + 2 || height < 4 * r + 2) {
+    out.failure_reason = "dense: image too small for the window";
+    return out;
+  }
+  const Eigen::Matrix3d Ks = ShrinkK(K, f);
+  const Eigen::Matrix3d Ks_inv = Ks.inverse();
+  const Eigen::Matrix3d& R = rotation_b_from_a;
+  const Eigen::Vector3d& t = translation_b_from_a;
+
+  // Planes: enough that neighbouring ones move A's pixels by about plane_step_px in B.
+  double span = 0;
+  for (int gy = 0; gy <= 4; ++gy) {
+    for (int gx = 0; gx <= 4; ++gx) {
+      const Eigen::Vector3d ray =
+          Ks_inv * Eigen::Vector3d(gx * (width - 1) / 4.0, gy * (height - 1) / 4.0, 1.0);
+      const Eigen::Vector3d near_b = Ks * (R * ray + t * rho_max);
+      const Eigen::Vector3d far_b = Ks * (R * ray + t * rho_min);
+      if (near_b.z() <= 0 || far_b.z() <= 0) continue;
+      span = std::max(span, (near_b.hnormalized() - far_b.hnormalized()).norm());
+    }
+  }
+  const int planes = std::clamp(static_cast<int>(std::ceil(span / options.plane_step_px)) + 1,
+                                options.min_planes, options.max_planes);
+  const double rho_step = (rho_max - rho_min) / (planes - 1);
+  out.K = Ks;
+  out.downscale = f;
+  out.inverse_depth_min = rho_min;
+  out.inverse_depth_max = rho_max;
+  out.planes = planes;
+  out.inverse_depth_step = rho_step;
+
+  // A's window statistics.
+  const cv::Size window(2 * r + 1, 2 * r + 1);
+  cv::Mat a, b, mean_a, mean_aa, tmp;
+  a8.convertTo(a, CV_32F);
+  b8.convertTo(b, CV_32F);
+  cv::boxFilter(a, mean_a, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::boxFilter(a.mul(a), mean_aa, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::Mat var_a = mean_aa - mean_a.mul(mean_a);
+  const float min_var = static_cast<float>(options.min_texture_std * options.min_texture_std);
+  cv::Mat textured(height, width, CV_8UC1);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) textured.at<uint8_t>(y, x) = var_a.at<float>(y, x) >= min_var;
+  }
+
+  // Cost volume, filled plane by plane (plane-major, contiguous writes), then transposed in
+  // cache-sized blocks to pixel-major for the aggregation: cost[(y * width + x) * planes + d].
+  const size_t pixels = static_cast<size_t>(width) * height;
+  // The volumes are kept per thread between calls: at 320x240 x 64 planes each is 10 MB, and
+  // fresh pages for them cost more than the sweep itself (measured: 45 % of the stage).
+  thread_local std::vector<uint16_t> cost_by_plane, cost, sum;
+  cost_by_plane.assign(pixels * planes, kNeutralCost);
+  // Per-plane images allocated once (a fresh large allocation per plane costs page faults).
+  cv::Mat warped(a.size(), CV_32F), ww(a.size(), CV_32F), aw(a.size(), CV_32F);
+  cv::Mat mean_w(a.size(), CV_32F), mean_ww(a.size(), CV_32F), mean_aw(a.size(), CV_32F);
+  for (int d = 0; d < planes; ++d) {
+    const Eigen::Matrix3d H = PlaneHomography(Ks, Ks_inv, R, t, rho_min + d * rho_step);
+    cv::Mat Hcv(3, 3, CV_64F);
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) Hcv.at<double>(i, j) = H(i, j);
+    }
+    cv::warpPerspective(b, warped, Hcv, a.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                        cv::BORDER_REPLICATE);
+    cv::multiply(warped, warped, ww);
+    cv::multiply(a, warped, aw);
+    cv::boxFilter(warped, mean_w, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+    cv::boxFilter(ww, mean_ww, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+    cv::boxFilter(aw, mean_aw, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+    const Eigen::Matrix3f Hf = H.cast<float>();
+    for (int y = 0; y < height; ++y) {
+      const float* ma = mean_a.ptr<float>(y);
+      const float* va = var_a.ptr<float>(y);
+      const float* mw = mean_w.ptr<float>(y);
+      const float* mww = mean_ww.ptr<float>(y);
+      const float* maw = mean_aw.ptr<float>(y);
+      const uint8_t* tex = textured.ptr<uint8_t>(y);
+      uint16_t* out_row =
+          &cost_by_plane[static_cast<size_t>(d) * pixels + static_cast<size_t>(y) * width];
+      // B's pixel for (x, y) under H: pixels that B does not see keep the neutral cost.
+      const Eigen::Vector3f row0 = Hf * Eigen::Vector3f(0, static_cast<float>(y), 1);
+      const Eigen::Vector3f dcol = Hf.col(0);
+      for (int x = 0; x < width; ++x) {
+        if (!tex[x]) continue;
+        const Eigen::Vector3f hb = row0 + static_cast<float>(x) * dcol;
+        if (hb.z() <= 0) continue;
+        const float ub = hb.x() / hb.z(), vb = hb.y() / hb.z();
+        if (ub < 0 || vb < 0 || ub > static_cast<float>(width - 1) ||
+            vb > static_cast<float>(height - 1)) {
+          continue;
+        }
+        const float var_w = mww[x] - mw[x] * mw[x];
+        float zncc = 0;
+        if (var_w >= min_var) zncc = (maw[x] - ma[x] * mw[x]) / std::sqrt(va[x] * var_w);
+        zncc = std::clamp(zncc, -1.0f, 1.0f);
+        out_row[x] = static_cast<uint16_t>((1.0f - zncc) * kCostScale + 0.5f);
+      }
+    }
+  }
+  cost.resize(pixels * planes);
+  constexpr size_t kBlock = 64;
+  for (size_t p0 = 0; p0 < pixels; p0 += kBlock) {
+    const size_t p1 = std::min(pixels, p0 + kBlock);
+    for (int d = 0; d < planes; ++d) {
+      const uint16_t* src = &cost_by_plane[static_cast<size_t>(d) * pixels];
+      for (size_t p = p0; p < p1; ++p) cost[p * planes + d] = src[p];
+    }
+  }
+
+  // Semi-global aggregation over eight paths.
+  SgmPenalties penalties;
+  penalties.p1 = static_cast<uint16_t>(std::lround(options.penalty_small * kCostScale));
+  penalties.p2 =
+      std::max<uint16_t>(static_cast<uint16_t>(penalties.p1 + 1),
+                         static_cast<uint16_t>(std::lround(options.penalty_large * kCostScale)));
+  penalties.edge_tau = options.edge_tau;
+  sum.assign(pixels * planes, 0);
+  const cv::Mat guide = a8.isContinuous() ? a8 : a8.clone();
+  AggregateSgm(cost, std::span<const uint8_t>(guide.data, pixels), width, height, planes, penalties,
+               sum);
+
+  // Winner-take-all, the parabola through the minimum and its neighbours, the checks.
+  cv::Mat plane_x16(height, width, CV_16SC1, cv::Scalar(-1));
+  cv::Mat confidence(height, width, CV_32FC1, cv::Scalar(0));
+  const int min_zncc_cost = static_cast<int>(std::lround((1.0 - options.min_zncc) * kCostScale));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const size_t p = static_cast<size_t>(y) * width + x;
+      const uint16_t* s = &sum[p * planes];
+      // Minimum, then its first index, then the minimum outside best +- 1 (each loop
+      // vectorizes).
+      uint16_t best_value = s[0];
+      for (int d = 1; d < planes; ++d) best_value = std::min(best_value, s[d]);
+      const int best = static_cast<int>(std::find(s, s + planes, best_value) - s);
+      if (best == 0 || best == planes - 1) continue;  // Outside the swept range.
+      int second = std::numeric_limits<int>::max();
+      for (int d = 0; d < best - 1; ++d) second = std::min(second, static_cast<int>(s[d]));
+      for (int d = best + 2; d < planes; ++d) second = std::min(second, static_cast<int>(s[d]));
+      const double conf = second > 0 ? 1.0 - static_cast<double>(s[best]) / second : 0.0;
+      if (conf < options.min_confidence) continue;
+      if (textured.at<uint8_t>(y, x) && cost[p * planes + best] > min_zncc_cost) continue;
+      const double s0 = s[best - 1], s1 = s[best], s2 = s[best + 1];
+      const double denom = s0 - 2 * s1 + s2;
+      const double offset = denom > 0 ? std::clamp(0.5 * (s0 - s2) / denom, -0.5, 0.5) : 0.0;
+      plane_x16.at<int16_t>(y, x) = static_cast<int16_t>(std::lround(16 * (best + offset)));
+      confidence.at<float>(y, x) = static_cast<float>(conf);
+    }
+  }
+  if (options.max_speckle_fraction > 0) {
+    cv::filterSpeckles(plane_x16, -1,
+                       static_cast<int>(options.max_speckle_fraction * static_cast<double>(pixels)),
+                       16 * options.speckle_planes);
+  }
+  cv::Mat rho(height, width, CV_32FC1, cv::Scalar(0));
+  int valid = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const int16_t v = plane_x16.at<int16_t>(y, x);
+      if (v < 0) {
+        confidence.at<float>(y, x) = 0;
+        continue;
+      }
+      rho.at<float>(y, x) = static_cast<float>(rho_min + rho_step * v / 16.0);
+      ++valid;
+    }
+  }
+  out.inverse_depth = MedianOfValid(rho);
+  FillSmallHoles(static_cast<int>(options.max_hole_fraction * static_cast<double>(pixels)),
+                 static_cast<float>(options.min_confidence), &out.inverse_depth, &confidence);
+  out.confidence = confidence;
+  valid = cv::countNonZero(out.inverse_depth > 0);
+  out.valid_fraction = static_cast<double>(valid) / static_cast<double>(pixels);
+  if (valid == 0) {
+    out.failure_reason = "dense: no pixel has a confident depth";
+    return out;
+  }
+  out.success = true;
+  return out;
+}
+
+double InverseDepthAt(const DenseDepth& depth, double u, double v) {
+  const cv::Mat& rho = depth.inverse_depth;
+  if (rho.empty()) return 0;
+  const double f = depth.downscale;
+  const double us = (u + 0.5) / f - 0.5, vs = (v + 0.5) / f - 0.5;
+  const int xn = static_cast<int>(std::lround(us)), yn = static_cast<int>(std::lround(vs));
+  if (xn < 0 || yn < 0 || xn >= rho.cols || yn >= rho.rows) return 0;
+  const float nearest = rho.at<float>(yn, xn);
+  if (!(nearest > 0)) return 0;
+  const int x0 = static_cast<int>(std::floor(us)), y0 = static_cast<int>(std::floor(vs));
+  const double fx = us - x0, fy = vs - y0;
+  double sum = 0, weight = 0;
+  float lo = nearest, hi = nearest;
+  for (int j = 0; j <= 1; ++j) {
+    for (int i = 0; i <= 1; ++i) {
+      const int x = x0 + i, y = y0 + j;
+      if (x < 0 || y < 0 || x >= rho.cols || y >= rho.rows) continue;
+      const float value = rho.at<float>(y, x);
+      if (!(value > 0)) continue;
+      const double w = (i ? fx : 1 - fx) * (j ? fy : 1 - fy);
+      sum += w * value;
+      weight += w;
+      lo = std::min(lo, value);
+      hi = std::max(hi, value);
+    }
+  }
+  // Across a depth edge a blend would be a point on neither surface: take the nearest.
+  if (hi - lo > 0.05 * hi + 2 * depth.inverse_depth_step) return nearest;
+  return weight > 1e-9 ? sum / weight : nearest;
+}
+
+}  // namespace mm
