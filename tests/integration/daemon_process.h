@@ -137,10 +137,11 @@ class DaemonProcess {
   pid_t pid_ = -1;
 };
 
+/// What a watcher sees as entries: names not starting with a dot, but the `latest` symlink.
 inline std::vector<fs::path> VisibleEntries(const fs::path& spool) {
   std::vector<fs::path> out;
   for (const auto& item : fs::directory_iterator(spool)) {
-    if (item.path().filename().string()[0] != '.') out.push_back(item.path());
+    if (item.path().filename().string()[0] != '.' && !item.is_symlink()) out.push_back(item.path());
   }
   return out;
 }
