@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "capture/trigger.h"
 #include "recon/keyframe_gate.h"
@@ -26,6 +27,10 @@ struct DaemonConfig {
   std::filesystem::path calibration;  ///< [camera] calibration
 
   std::filesystem::path control_socket = "/run/monomesh/control.sock";  ///< [control] socket
+  /// [control] group: the socket's group, so its members run `monomesh ctl` without sudo; empty
+  /// leaves the daemon's own group. Resolved when the daemon binds the socket.
+  std::string control_group = "monomesh";
+  int control_mode = 0660;  ///< [control] mode: the socket's permission bits (0 to 0777).
 
   /// [trigger] gpio_chip, gpio_line, active_low, bias, debounce_ms: the capture button.
   /// Empty chip: no button (the control socket and SIGUSR1 still trigger).
@@ -43,6 +48,9 @@ struct DaemonConfig {
 
   std::string log_level = "info";     ///< [log] level: trace|debug|info|warn|error
 };
+
+/// Every key the parser knows, as "table.key", in the order of the example config.
+const std::vector<std::string>& DaemonConfigKeys();
 
 /// Reads and validates a config file.
 /// \throws ConfigError naming the file, line and key.

@@ -430,7 +430,12 @@ int Daemon::Run() {
   spdlog::info("camera: {}", capture_->Describe());
 
   try {
-    listen_fd_ = ListenControlSocket(config_.control_socket);
+    listen_fd_ = ListenControlSocket(
+        config_.control_socket,
+        {.group = config_.control_group, .mode = static_cast<unsigned>(config_.control_mode)});
+  } catch (const ControlAccessError& e) {
+    spdlog::critical("config: {}", e.what());
+    return kExitConfig;
   } catch (const ControlPathError& e) {
     spdlog::critical("{}", e.what());
     return kExitConfig;
