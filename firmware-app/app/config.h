@@ -43,7 +43,9 @@ struct DaemonConfig {
 
   PairOptions recon;                  ///< [recon] ...
 
-  std::filesystem::path spool_dir = "/var/spool/monomesh";  ///< [spool] dir
+  /// [spool] dir. The default is in the unit's StateDirectory (/var/lib/monomesh), the one
+  /// place besides /run/monomesh the unit lets the daemon write.
+  std::filesystem::path spool_dir = "/var/lib/monomesh/spool";
   int spool_max_entries = 200;        ///< [spool] max_entries (0 = keep all)
 
   std::string log_level = "info";     ///< [log] level: trace|debug|info|warn|error

@@ -132,6 +132,19 @@ TEST(DaemonConfig, ExampleConfigDocumentsEverySchemeAndCalibrationFormat) {
   EXPECT_NE(text.find("Calib_Results.m"), std::string::npos);
 }
 
+// One source of truth for where the daemon writes: the default spool is in the unit's
+// StateDirectory, and the unit names no other writable path.
+TEST(DaemonConfig, DefaultSpoolIsInTheUnitsStateDirectory) {
+  const std::string unit =
+      ReadText(std::filesystem::path(MM_SOURCE_DIR) / "systemd/monomeshd.service");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(unit, m, std::regex("\nStateDirectory=(\\S+)\n"))) << unit;
+  const std::filesystem::path state = std::filesystem::path("/var/lib") / m[1].str();
+  const DaemonConfig d = ParseDaemonConfig(kMinimal, "/x/d.toml");
+  EXPECT_EQ(d.spool_dir.parent_path(), state);
+  EXPECT_EQ(unit.find("ReadWritePaths="), std::string::npos);
+}
+
 TEST(DaemonConfig, GpioButtonIsOptional) {
   EXPECT_FALSE(ParseDaemonConfig(kMinimal, "/x/d.toml").button_enabled);
   const DaemonConfig c = ParseDaemonConfig(

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the Debian package from a build tree and checks it: the exact file list, the
 # dependencies found by dpkg-shlibdeps, the conffile and maintainer script, that the packaged
-# daemon runs, and that `systemd-analyze verify` accepts the packaged unit without a warning.
+# daemon runs, that `systemd-analyze verify` accepts the packaged unit without a warning, and
+# that `systemd-analyze security` rates its exposure at most 2.0.
 # Usage: check_deb.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
 build="$1"; src="$2"
@@ -39,3 +40,13 @@ sed "s#/usr/bin/monomeshd#$work/root/usr/bin/monomeshd#" \
 out=$(systemd-analyze verify "$work/monomeshd.service" 2>&1) || { echo "$out"; echo "FAIL: systemd-analyze verify"; exit 1; }
 if [ -n "$out" ]; then echo "$out"; echo "FAIL: systemd-analyze verify warned"; exit 1; fi
 echo "ok: systemd-analyze verify accepts monomeshd.service"
+
+security=$(systemd-analyze security --offline=true "$work/monomeshd.service" 2>&1) ||
+  { echo "$security"; echo "FAIL: systemd-analyze security"; exit 1; }
+exposure=$(printf '%s\n' "$security" | sed -n 's/.*Overall exposure level for [^:]*: \([0-9.]*\).*/\1/p')
+[ -n "$exposure" ] || { echo "$security"; echo "FAIL: no exposure figure"; exit 1; }
+if ! awk -v e="$exposure" 'BEGIN { exit !(e <= 2.0) }'; then
+  printf '%s\n' "$security" | grep '✗'
+  echo "FAIL: systemd-analyze security: exposure $exposure > 2.0"; exit 1
+fi
+echo "ok: systemd-analyze security: exposure $exposure (<= 2.0)"
