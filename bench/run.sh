@@ -134,6 +134,7 @@ uri = "replay:$root/data/tum_office?rate=realtime&loop=1&width=$w&height=$h"
 calibration = "$d/calib.toml"
 [control]
 socket = "$d/control.sock"
+group = ""
 [spool]
 dir = "$d/spool"
 TOML

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+#include "base/version.h"
 #include "entry/json_text.h"
 
 namespace mm {
@@ -14,6 +15,7 @@ json KeyframeJson(const KeyframeInfo& k) {
   return {{"sequence", k.sequence},
           {"source_time_s", k.source_time_s},
           {"capture_time_ns", k.capture_time_ns},
+          {"capture_realtime_ns", k.capture_realtime_ns},
           {"source", k.source}};
 }
 
@@ -41,6 +43,7 @@ void ReadKeyframe(const json& j, KeyframeInfo* k) {
   Read(j, "sequence", &k->sequence);
   Read(j, "source_time_s", &k->source_time_s);
   Read(j, "capture_time_ns", &k->capture_time_ns);
+  Read(j, "capture_realtime_ns", &k->capture_realtime_ns);
   Read(j, "source", &k->source);
 }
 
@@ -52,7 +55,7 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
                             std::span<const KeyframeBTry> tries, const ScaleEstimate& scale) {
   const TwoViewResult& g = r.geometry;
   EntryReport report;
-  report.monomesh_version = MM_VERSION;
+  report.monomesh_version = kMonomeshVersion;
   report.success = r.success;
   report.failure_reason = r.failure_reason;
   report.pair_classification = {.kind = PairKindName(g.classification.kind),
@@ -148,6 +151,7 @@ json ToJson(const EntryReport& r) {
   json report;
   report["schema_version"] = r.schema_version;
   report["monomesh_version"] = r.monomesh_version;
+  report["boot_id"] = r.boot_id;
   report["success"] = r.success;
   report["failure_reason"] = r.failure_reason;
   const auto& c = r.pair_classification;
@@ -266,6 +270,7 @@ std::string FromJson(const json& j, EntryReport* out) {
              std::to_string(kEntryReportSchemaVersion);
     }
     Read(j, "monomesh_version", &r.monomesh_version);
+    Read(j, "boot_id", &r.boot_id);
     Read(j, "success", &r.success);
     Read(j, "failure_reason", &r.failure_reason);
     const json& c = Object(j, "pair_classification");

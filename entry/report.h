@@ -27,19 +27,25 @@
 
 namespace mm {
 
-inline constexpr int kEntryReportSchemaVersion = 2;  ///< 2: `scale` is an object.
+/// 2: `scale` is an object. 3: keyframes carry `capture_realtime_ns`, the report `boot_id`.
+/// docs/report_schema.md documents every field.
+inline constexpr int kEntryReportSchemaVersion = 3;
 
 /// Where a keyframe came from, for the report.
 struct KeyframeInfo {
   uint64_t sequence = 0;
   double source_time_s = 0.0;
-  int64_t capture_time_ns = 0;
+  int64_t capture_time_ns = 0;      ///< CLOCK_MONOTONIC (of the boot `boot_id` names).
+  int64_t capture_realtime_ns = 0;  ///< The same instant on CLOCK_REALTIME (0: unknown).
   std::string source;
 };
 
 struct EntryReport {
   int schema_version = kEntryReportSchemaVersion;
   std::string monomesh_version;
+  /// /proc/sys/kernel/random/boot_id of the boot whose CLOCK_MONOTONIC the keyframes' capture
+  /// times are on ("" when unknown).
+  std::string boot_id;
   bool success = false;
   std::string failure_reason;
 

@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 namespace mm {
 namespace {
@@ -26,8 +29,17 @@ EntryReport Filled() {
                          .initial_rms_px = 0.5,
                          .final_rms_px = 0.3,
                          .message = "CONVERGENCE"};
-  r.keyframe_a = {.sequence = 3, .source_time_s = 100.25, .capture_time_ns = 17, .source = "a.png"};
-  r.keyframe_b = {.sequence = 9, .source_time_s = 101.5, .capture_time_ns = 42, .source = "b.png"};
+  r.boot_id = "0f6c1c4e-5a1d-4c8b-9d59-2b7e3f1a9c10";
+  r.keyframe_a = {.sequence = 3,
+                  .source_time_s = 100.25,
+                  .capture_time_ns = 17,
+                  .capture_realtime_ns = 1'764'640'000'000'000'017,
+                  .source = "a.png"};
+  r.keyframe_b = {.sequence = 9,
+                  .source_time_s = 101.5,
+                  .capture_time_ns = 42,
+                  .capture_realtime_ns = 1'764'640'000'000'000'042,
+                  .source = "b.png"};
   r.camera = {.width = 640,
               .height = 480,
               .fc = {535.4, 539.2},
@@ -76,6 +88,13 @@ TEST(EntryReport, RoundTripsThroughJson) {
   ASSERT_TRUE(back.preview.has_value());
   EXPECT_EQ(back.preview->renderer, "llvmpipe");
   EXPECT_EQ(j["schema_version"], kEntryReportSchemaVersion);
+  EXPECT_EQ(kEntryReportSchemaVersion, 3);
+  // Wall-clock capture times beside the monotonic ones, and the boot those are of.
+  EXPECT_EQ(j["boot_id"], "0f6c1c4e-5a1d-4c8b-9d59-2b7e3f1a9c10");
+  EXPECT_EQ(j["keyframes"]["a"]["capture_time_ns"], 17);
+  EXPECT_EQ(j["keyframes"]["a"]["capture_realtime_ns"], 1'764'640'000'000'000'017);
+  EXPECT_EQ(back.keyframe_b.capture_realtime_ns, 1'764'640'000'000'000'042);
+  EXPECT_EQ(back.boot_id, Filled().boot_id);
   EXPECT_EQ(j["keyframes"]["a"]["source_time_s"], 100.25);
   EXPECT_EQ(j["camera"]["image_size"], json::array({640, 480}));
   ASSERT_EQ(back.keyframe_b_tries.size(), 2u);
@@ -163,6 +182,39 @@ TEST(EntryReport, ReadsAPartialReportAndRejectsBadOnes) {
   EXPECT_NE(FromJson(json{{"schema_version", kEntryReportSchemaVersion + 1}}, &r).find("newer"),
             std::string::npos);
   EXPECT_NE(FromJson(json::array(), &r), "");
+}
+
+// Every key report.json has, by its path (keyframes.b as keyframes.a, array elements as []),
+// into `out`.
+void KeyPaths(const json& j, const std::string& prefix, std::vector<std::string>* out) {
+  for (const auto& [key, value] : j.items()) {
+    const std::string path = prefix.empty() ? key : prefix + "." + key;
+    if (value.is_object()) {
+      KeyPaths(value, path == "keyframes.b" ? "keyframes.a" : path, out);
+    } else if (value.is_array() && !value.empty() && value.front().is_object()) {
+      KeyPaths(value.front(), path + "[]", out);
+    } else {
+      out->push_back(path);
+    }
+  }
+}
+
+// docs/report_schema.md documents every field, by its path, and the current schema version.
+TEST(EntryReport, EveryFieldIsDocumented) {
+  std::ifstream in(std::filesystem::path(MM_SOURCE_DIR) / "docs/report_schema.md");
+  std::ostringstream doc;
+  doc << in.rdbuf();
+  ASSERT_FALSE(doc.str().empty());
+  std::vector<std::string> paths;
+  KeyPaths(ToJson(Filled()), "", &paths);
+  EXPECT_GT(paths.size(), 60u);
+  for (const std::string& path : paths) {
+    EXPECT_NE(doc.str().find("| `" + path + "` |"), std::string::npos)
+        << path << " is not documented in docs/report_schema.md";
+  }
+  EXPECT_NE(
+      doc.str().find("# report.json (schema " + std::to_string(kEntryReportSchemaVersion) + ")"),
+      std::string::npos);
 }
 
 }  // namespace

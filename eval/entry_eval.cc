@@ -93,8 +93,9 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
   }
   std::vector<fs::path> entries;
   for (const auto& d : fs::directory_iterator(options.spool)) {
-    // Entries only: the spool's temporary folders start with '.'.
-    if (d.is_directory() && d.path().filename().string()[0] != '.' &&
+    // Entries only: the spool's temporary folders start with '.', and `latest` is a symlink
+    // to an entry already listed.
+    if (d.is_directory() && !d.is_symlink() && d.path().filename().string()[0] != '.' &&
         fs::is_regular_file(d.path() / "report.json")) {
       entries.push_back(d.path());
     }

@@ -6,11 +6,13 @@
 
 #include "app/config.h"
 #include "app/logging.h"
+#include "base/version.h"
 #include "calib/calib_io.h"
 #include "cli/commands.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"monomesh: capture-to-mesh appliance tool"};
+  app.set_version_flag("-V,--version", std::string("monomesh ") + mm::kMonomeshVersion);
   app.require_subcommand(1);
   const std::vector<mm::cli::Runner> runners{
       mm::cli::AddReconCommand(app),

@@ -7,9 +7,11 @@
 #include "app/config.h"
 #include "app/daemon.h"
 #include "app/logging.h"
+#include "base/version.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"monomeshd: capture-to-mesh camera appliance daemon"};
+  app.set_version_flag("-V,--version", std::string("monomeshd ") + mm::kMonomeshVersion);
   std::string config_path = "/etc/monomesh/monomeshd.toml";
   app.add_option("-c,--config", config_path, "Config file (TOML)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);

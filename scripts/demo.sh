@@ -17,6 +17,7 @@ uri = "replay:$root/data/tum_office?rate=realtime&loop=1"
 calibration = "$root/data/tum_office/calib.toml"
 [control]
 socket = "$demo/control.sock"
+group = ""
 [spool]
 dir = "$spool"
 TOML

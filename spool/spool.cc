@@ -66,6 +66,7 @@ bool IsOwnWorkName(std::string_view name) {
   const std::string_view temp = Spool::kTempPrefix;
   if (name.substr(0, temp.size()) != temp) return false;
   name.remove_prefix(temp.size());
+  if (name == Spool::kLatestName) return true;  // A `latest` being replaced.
   if (name.substr(0, kDeletePrefix.size()) == kDeletePrefix) name.remove_prefix(kDeletePrefix.size());
   return IsEntryName(name);
 }
@@ -82,6 +83,28 @@ uint64_t SequenceOf(const std::string& name) {
 bool IsRealDirectory(const fs::directory_entry& item) {
   std::error_code ec;
   return item.symlink_status(ec).type() == fs::file_type::directory;
+}
+
+// Points `latest` at `entry_name`: a new symlink under the work name, renamed over `latest`
+// (rename(2) replaces it atomically: a reader sees the old or the new target, never none).
+// Returns an empty string or what failed.
+std::string UpdateLatest(const fs::path& dir, const std::string& entry_name) {
+  const fs::path latest = dir / Spool::kLatestName;
+  struct stat st {};
+  if (::lstat(latest.c_str(), &st) == 0 && !S_ISLNK(st.st_mode)) {
+    return latest.string() + ": not a symlink; left alone";
+  }
+  const fs::path temp = dir / (std::string(Spool::kTempPrefix) + Spool::kLatestName);
+  ::unlink(temp.c_str());  // A leftover of an interrupted update.
+  if (::symlink(entry_name.c_str(), temp.c_str()) != 0) {
+    return temp.string() + ": symlink: " + ErrnoText(errno);
+  }
+  if (::rename(temp.c_str(), latest.c_str()) != 0) {
+    const std::string error = latest.string() + ": rename: " + ErrnoText(errno);
+    ::unlink(temp.c_str());
+    return error;
+  }
+  return {};
 }
 
 }  // namespace
@@ -103,6 +126,7 @@ std::string Spool::Recover(int* removed_leftovers) {
   for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
     const std::string name = item.path().filename().string();
     if (IsOwnWorkName(name)) {
+      // remove_all does not follow a symlink (a leftover .tmp-latest): it removes the link.
       fs::remove_all(item.path(), ec);
       if (ec) return "spool: cannot remove leftover " + item.path().string() + ": " + ec.message();
       ++removed;
@@ -171,6 +195,9 @@ SpoolCommit Spool::Commit(const std::vector<SpoolFile>& files, std::time_t when)
   if (std::string error = FsyncDir(options_.dir); !error.empty()) {
     // The entry is complete and visible; only its durability across power loss is in doubt.
     result.error = error;
+  }
+  if (std::string error = UpdateLatest(options_.dir, name); !error.empty()) {
+    result.error += (result.error.empty() ? "" : "; ") + error;
   }
 
   if (options_.max_entries > 0) {

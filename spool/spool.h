@@ -4,8 +4,13 @@
 // `<spool>/.tmp-<name>/`, each fsynced, the folder fsynced, then renamed into place and the
 // spool folder fsynced (rename(2) is atomic within a filesystem). Watchers ignore dot-names.
 // Leftovers of a crash (.tmp-<entry name>) are removed by Recover() at start. The spool touches
-// only names it makes: entries (`YYYYMMDDThhmmssZ-NNNNNN`, real folders) and its .tmp- work
-// folders; anything else in the folder is left alone and never counts as an entry.
+// only names it makes: entries (`YYYYMMDDThhmmssZ-NNNNNN`, real folders), its .tmp- work
+// folders and the symlink `latest`; anything else in the folder is left alone and never counts
+// as an entry.
+//
+// `latest` is a symlink to the newest entry's name (relative, so it resolves wherever the spool
+// is mounted), replaced atomically after each commit: a symlink made as `.tmp-latest`, then
+// renamed over `latest`. A `latest` that is not a symlink is not the spool's and stays.
 //
 // Thread-safety: thread-bound (one writer per spool folder).
 
@@ -32,7 +37,8 @@ struct SpoolOptions {
 struct SpoolCommit {
   bool ok = false;
   std::filesystem::path entry;  ///< The final entry folder when ok.
-  std::string error;            ///< What failed (names the file and the errno text).
+  std::string error;            ///< What failed (names the file and the errno text); with ok,
+                      ///< what went wrong after the entry was in place (its fsync, `latest`).
   uint64_t bytes = 0;
   int removed_by_retention = 0;
 };
@@ -54,6 +60,7 @@ class Spool {
   [[nodiscard]] const std::filesystem::path& dir() const { return options_.dir; }
 
   static constexpr const char* kTempPrefix = ".tmp-";
+  static constexpr const char* kLatestName = "latest";
 
  private:
   SpoolOptions options_;

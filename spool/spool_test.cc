@@ -68,7 +68,51 @@ TEST(Spool, RetentionKeepsNewest) {
   ASSERT_EQ(entries.size(), 2u);
   EXPECT_EQ(ReadAll(entries[0] / "f"), "2");
   EXPECT_EQ(ReadAll(entries[1] / "f"), "3");
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
+  // The two entries and `latest`.
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 3);
+}
+
+// `latest` names the newest entry after each commit, is replaced by rename (no moment without
+// it), is never an entry, and is left alone when it is not the spool's symlink.
+TEST(Spool, LatestSymlinkNamesTheNewestEntry) {
+  const fs::path dir = FreshDir("latest");
+  Spool spool({.dir = dir, .max_entries = 2});
+  ASSERT_EQ(spool.Recover(), "");
+  EXPECT_FALSE(fs::exists(fs::symlink_status(dir / "latest")));
+  for (int i = 0; i < 3; ++i) {
+    const SpoolCommit c = spool.Commit({{"f", std::to_string(i)}}, i);
+    ASSERT_TRUE(c.ok) << c.error;
+    EXPECT_EQ(c.error, "");
+    ASSERT_TRUE(fs::is_symlink(dir / "latest"));
+    EXPECT_EQ(fs::read_symlink(dir / "latest"), c.entry.filename());  // Relative.
+    EXPECT_EQ(ReadAll(dir / "latest" / "f"), std::to_string(i));
+    EXPECT_FALSE(fs::exists(fs::symlink_status(dir / ".tmp-latest")));
+  }
+  EXPECT_EQ(spool.Entries().size(), 2u);  // Retention counts entries only.
+  for (const fs::path& e : spool.Entries()) EXPECT_NE(e.filename(), "latest");
+
+  // A leftover of an interrupted update is the spool's own and goes at the next start; the
+  // sequence goes on from the entries, not from `latest`.
+  fs::create_symlink("nowhere", dir / ".tmp-latest");
+  Spool again({.dir = dir, .max_entries = 2});
+  int removed = 0;
+  ASSERT_EQ(again.Recover(&removed), "");
+  EXPECT_EQ(removed, 1);
+  EXPECT_FALSE(fs::exists(fs::symlink_status(dir / ".tmp-latest")));
+  const SpoolCommit next = again.Commit({{"f", "3"}}, 3);
+  ASSERT_TRUE(next.ok);
+  EXPECT_EQ(next.entry.filename().string(), "19700101T000003Z-000004");
+  EXPECT_EQ(fs::read_symlink(dir / "latest"), next.entry.filename());
+
+  // An operator's `latest` (not a symlink) stays; the commit succeeds and says why.
+  fs::remove(dir / "latest");
+  fs::create_directories(dir / "latest");
+  std::ofstream(dir / "latest" / "keep.txt") << "operator data";
+  const SpoolCommit foreign = again.Commit({{"f", "4"}}, 4);
+  ASSERT_TRUE(foreign.ok);
+  EXPECT_NE(foreign.error.find("not a symlink"), std::string::npos) << foreign.error;
+  EXPECT_EQ(ReadAll(dir / "latest" / "keep.txt"), "operator data");
+  EXPECT_EQ(again.Entries().size(), 2u);
 }
 
 // Retention and recovery touch only names the spool made: an operator's archive/, a file, a
@@ -175,7 +219,9 @@ TEST(Spool, FailedWriteIsReportedAndEarlierEntriesSurvive) {
   const auto entries = spool.Entries();
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(ReadAll(entries[0] / "a"), "first");
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  // The entry and `latest`, which still names it.
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
+  EXPECT_EQ(fs::read_symlink(dir / "latest"), entries[0].filename());
 }
 
 }  // namespace

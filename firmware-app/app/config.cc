@@ -26,8 +26,12 @@ class Reader {
     throw ConfigError(msg + ": key '" + key + "': " + what);
   }
 
-  const toml::table* Table(const std::string& name, std::set<std::string> allowed) {
+  const toml::table* Table(const std::string& name) {
     known_tables_.insert(name);
+    std::set<std::string> allowed;
+    for (const std::string& k : DaemonConfigKeys()) {
+      if (k.starts_with(name + ".")) allowed.insert(k.substr(name.size() + 1));
+    }
     const toml::node* node = root_.get(name);
     if (node == nullptr) return nullptr;
     const toml::table* table = node->as_table();
@@ -104,6 +108,37 @@ constexpr int kMaxCount = 1'000'000;
 
 }  // namespace
 
+const std::vector<std::string>& DaemonConfigKeys() {
+  static const std::vector<std::string> kKeys{"camera.uri",
+                                              "camera.calibration",
+                                              "control.socket",
+                                              "control.group",
+                                              "control.mode",
+                                              "trigger.gpio_chip",
+                                              "trigger.gpio_line",
+                                              "trigger.active_low",
+                                              "trigger.bias",
+                                              "trigger.debounce_ms",
+                                              "keyframes.parallax_deg",
+                                              "keyframes.min_tracks",
+                                              "keyframes.min_inliers",
+                                              "keyframes.max_tries",
+                                              "keyframes.timeout_s",
+                                              "recon.min_parallax_deg",
+                                              "recon.sift",
+                                              "recon.max_features",
+                                              "recon.contrast_threshold",
+                                              "recon.match_ratio",
+                                              "recon.ransac_threshold_px",
+                                              "recon.min_inliers",
+                                              "recon.max_depth_ratio",
+                                              "recon.refine_points",
+                                              "spool.dir",
+                                              "spool.max_entries",
+                                              "log.level"};
+  return kKeys;
+}
+
 DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::path& path) {
   toml::table root;
   try {
@@ -116,21 +151,22 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   c.config_dir = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
   Reader r(root, path.string());
 
-  const auto* camera = r.Table("camera", {"uri", "calibration"});
+  const auto* camera = r.Table("camera");
   r.Get(camera, "camera", "uri", &c.camera_uri);
   r.GetPath(camera, "camera", "calibration", c.config_dir, &c.calibration);
   r.Require(!c.camera_uri.empty(), camera, "camera", "uri", "missing (e.g. \"replay:DIR\")");
   r.Require(!c.calibration.empty(), camera, "camera", "calibration", "missing");
 
-  const auto* control = r.Table("control", {"socket"});
+  const auto* control = r.Table("control");
   r.GetPath(control, "control", "socket", c.config_dir, &c.control_socket);
   r.Require(c.control_socket.string().size() < sizeof(sockaddr_un{}.sun_path), control, "control",
             "socket",
             "longer than " + std::to_string(sizeof(sockaddr_un{}.sun_path) - 1) +
                 " bytes (the limit of a UNIX socket address)");
+  r.Get(control, "control", "group", &c.control_group);
+  r.GetNumber(control, "control", "mode", {0, 0777}, &c.control_mode);
 
-  const auto* trigger = r.Table("trigger", {"gpio_chip", "gpio_line", "active_low", "bias",
-                                            "debounce_ms"});
+  const auto* trigger = r.Table("trigger");
   std::string chip;
   r.Get(trigger, "trigger", "gpio_chip", &chip);
   if (!chip.empty()) {
@@ -150,8 +186,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
     }
   }
 
-  const auto* keyframes =
-      r.Table("keyframes", {"parallax_deg", "min_tracks", "min_inliers", "timeout_s", "max_tries"});
+  const auto* keyframes = r.Table("keyframes");
   r.GetNumber(keyframes, "keyframes", "parallax_deg", {0.0, 90.0}, &c.gate.parallax_deg);
   r.GetNumber(keyframes, "keyframes", "min_tracks", {8, kMaxCount}, &c.gate.min_tracks);
   r.GetNumber(keyframes, "keyframes", "min_inliers", {8, kMaxCount}, &c.gate.min_inliers);
@@ -160,9 +195,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.GetNumber(keyframes, "keyframes", "timeout_s", {0.0, 3600.0}, &c.keyframe_timeout_s);
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 
-  const auto* recon = r.Table(
-      "recon", {"sift", "max_features", "contrast_threshold", "match_ratio", "ransac_threshold_px",
-                "min_inliers", "max_depth_ratio", "refine_points", "min_parallax_deg"});
+  const auto* recon = r.Table("recon");
   std::string sift = SiftImplName(c.recon.sift.impl);
   r.Get(recon, "recon", "sift", &sift);
   const std::optional<SiftImpl> impl = ParseSiftImpl(sift);
@@ -202,11 +235,11 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
     r.Require(false, keyframes, "keyframes", key.c_str(), problem.substr(problem.find(':') + 2));
   }
 
-  const auto* spool = r.Table("spool", {"dir", "max_entries"});
+  const auto* spool = r.Table("spool");
   r.GetPath(spool, "spool", "dir", c.config_dir, &c.spool_dir);
   r.GetNumber(spool, "spool", "max_entries", {0, kMaxCount}, &c.spool_max_entries);
 
-  const auto* log = r.Table("log", {"level"});
+  const auto* log = r.Table("log");
   r.Get(log, "log", "level", &c.log_level);
   static const std::set<std::string> kLevels{"trace", "debug", "info", "warn", "error"};
   r.Require(kLevels.contains(c.log_level), log, "log", "level",

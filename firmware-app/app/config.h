@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "capture/trigger.h"
 #include "recon/keyframe_gate.h"
@@ -26,6 +27,10 @@ struct DaemonConfig {
   std::filesystem::path calibration;  ///< [camera] calibration
 
   std::filesystem::path control_socket = "/run/monomesh/control.sock";  ///< [control] socket
+  /// [control] group: the socket's group, so its members run `monomesh ctl` without sudo; empty
+  /// leaves the daemon's own group. Resolved when the daemon binds the socket.
+  std::string control_group = "monomesh";
+  int control_mode = 0660;  ///< [control] mode: the socket's permission bits (0 to 0777).
 
   /// [trigger] gpio_chip, gpio_line, active_low, bias, debounce_ms: the capture button.
   /// Empty chip: no button (the control socket and SIGUSR1 still trigger).
@@ -38,11 +43,16 @@ struct DaemonConfig {
 
   PairOptions recon;                  ///< [recon] ...
 
-  std::filesystem::path spool_dir = "/var/spool/monomesh";  ///< [spool] dir
+  /// [spool] dir. The default is in the unit's StateDirectory (/var/lib/monomesh), the one
+  /// place besides /run/monomesh the unit lets the daemon write.
+  std::filesystem::path spool_dir = "/var/lib/monomesh/spool";
   int spool_max_entries = 200;        ///< [spool] max_entries (0 = keep all)
 
   std::string log_level = "info";     ///< [log] level: trace|debug|info|warn|error
 };
+
+/// Every key the parser knows, as "table.key", in the order of the example config.
+const std::vector<std::string>& DaemonConfigKeys();
 
 /// Reads and validates a config file.
 /// \throws ConfigError naming the file, line and key.

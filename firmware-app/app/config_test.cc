@@ -1,6 +1,15 @@
 #include "app/config.h"
 
 #include <gtest/gtest.h>
+#include <toml++/toml.h>
+
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <variant>
+
+#include "capture/source_uri.h"
 
 namespace mm {
 namespace {
@@ -20,26 +29,120 @@ void ExpectError(const std::string& text, const std::string& needle) {
 
 constexpr const char* kMinimal = "[camera]\nuri = \"replay:data\"\ncalibration = \"c.toml\"\n";
 
-TEST(DaemonConfig, ExampleConfigLoadsWithDocumentedDefaults) {
+std::string ReadText(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+using Value = std::variant<bool, int64_t, double, std::string>;
+
+// The code's default of every key ("" for the required camera keys, which have none).
+std::map<std::string, Value> CodeDefaults() {
+  const DaemonConfig d = ParseDaemonConfig(kMinimal, "/x/d.toml");
+  const GpioButtonOptions button;
+  return {
+      {"control.socket", d.control_socket.string()},
+      {"control.group", d.control_group},
+      {"control.mode", int64_t{d.control_mode}},
+      {"trigger.gpio_chip", std::string()},  // No button.
+      {"trigger.gpio_line", button.line},
+      {"trigger.active_low", button.active_low},
+      {"trigger.bias", button.bias},
+      {"trigger.debounce_ms", int64_t{button.debounce_ms}},
+      {"keyframes.parallax_deg", d.gate.parallax_deg},
+      {"keyframes.min_tracks", int64_t{d.gate.min_tracks}},
+      {"keyframes.min_inliers", int64_t{d.gate.min_inliers}},
+      {"keyframes.max_tries", int64_t{d.max_b_tries}},
+      {"keyframes.timeout_s", d.keyframe_timeout_s},
+      {"recon.min_parallax_deg", d.recon.two_view.min_median_triangulation_angle_deg},
+      {"recon.sift", std::string(SiftImplName(d.recon.sift.impl))},
+      {"recon.max_features", int64_t{d.recon.sift.max_features}},
+      {"recon.contrast_threshold", d.recon.sift.contrast_threshold},
+      {"recon.match_ratio", d.recon.match.ratio},
+      {"recon.ransac_threshold_px", d.recon.two_view.ransac_threshold_px},
+      {"recon.min_inliers", int64_t{d.recon.two_view.min_inliers}},
+      {"recon.max_depth_ratio", d.recon.mesh.max_depth_ratio},
+      {"recon.refine_points", d.recon.refinement.enabled},
+      {"spool.dir", d.spool_dir.string()},
+      {"spool.max_entries", int64_t{d.spool_max_entries}},
+      {"log.level", d.log_level},
+  };
+}
+
+std::string Text(const Value& v) {
+  return std::visit(
+      [](const auto& x) {
+        std::ostringstream s;
+        s << std::boolalpha << x;
+        return s.str();
+      },
+      v);
+}
+
+// The example's value of a key, as the type the code's default has (a float key may be
+// written as an integer).
+std::optional<Value> ExampleValue(const toml::table& example, const std::string& key,
+                                  const Value& like) {
+  const toml::node_view<const toml::node> node = example.at_path(key);
+  if (!node) return std::nullopt;
+  if (std::holds_alternative<bool>(like)) {
+    if (auto v = node.value_exact<bool>()) return *v;
+  } else if (std::holds_alternative<int64_t>(like)) {
+    if (auto v = node.value_exact<int64_t>()) return *v;
+  } else if (std::holds_alternative<double>(like)) {
+    if (auto v = node.value<double>()) return *v;
+  } else if (auto v = node.value_exact<std::string>()) {
+    return *v;
+  }
+  return std::nullopt;
+}
+
+// The installed example documents the code: every key the parser knows is in it with the
+// code's default (the camera keys, which have none, name the bundled demo), and it loads.
+TEST(DaemonConfig, ExampleConfigListsEveryKeyWithTheCodesDefault) {
+  const toml::table example = toml::parse_file(kExample.string());
+  const std::map<std::string, Value> defaults = CodeDefaults();
+  for (const std::string& key : DaemonConfigKeys()) {
+    EXPECT_TRUE(example.at_path(key)) << key << " is not in " << kExample;
+    if (key == "camera.uri" || key == "camera.calibration") continue;
+    const auto it = defaults.find(key);
+    ASSERT_NE(it, defaults.end()) << key << ": the test has no default for it";
+    const std::optional<Value> got = ExampleValue(example, key, it->second);
+    ASSERT_TRUE(got.has_value()) << key << ": missing or of the wrong type in " << kExample;
+    EXPECT_EQ(Text(*got), Text(it->second)) << key << " in " << kExample;
+  }
+  EXPECT_EQ(defaults.size() + 2, DaemonConfigKeys().size());
   const DaemonConfig c = LoadDaemonConfig(kExample);
-  const DaemonConfig defaults = ParseDaemonConfig(kMinimal, "/x/d.toml");
-  EXPECT_EQ(c.gate.parallax_deg, defaults.gate.parallax_deg);
-  EXPECT_EQ(c.gate.min_tracks, defaults.gate.min_tracks);
-  EXPECT_EQ(c.gate.min_inliers, defaults.gate.min_inliers);
-  EXPECT_EQ(c.max_b_tries, defaults.max_b_tries);
-  EXPECT_EQ(c.recon.two_view.min_median_triangulation_angle_deg,
-            defaults.recon.two_view.min_median_triangulation_angle_deg);
-  EXPECT_EQ(c.keyframe_timeout_s, defaults.keyframe_timeout_s);
-  EXPECT_EQ(c.recon.sift.impl, defaults.recon.sift.impl);
-  EXPECT_EQ(c.recon.sift.max_features, defaults.recon.sift.max_features);
-  EXPECT_EQ(c.recon.match.ratio, defaults.recon.match.ratio);
-  EXPECT_EQ(c.recon.two_view.ransac_threshold_px, defaults.recon.two_view.ransac_threshold_px);
-  EXPECT_EQ(c.recon.two_view.min_inliers, defaults.recon.two_view.min_inliers);
-  EXPECT_EQ(c.recon.refinement.enabled, defaults.recon.refinement.enabled);
-  EXPECT_EQ(c.spool_dir, defaults.spool_dir);
-  EXPECT_EQ(c.spool_max_entries, defaults.spool_max_entries);
-  EXPECT_EQ(c.control_socket, defaults.control_socket);
-  EXPECT_EQ(c.log_level, defaults.log_level);
+  EXPECT_FALSE(c.button_enabled);
+  EXPECT_EQ(c.camera_uri, "replay:/usr/share/monomesh/demo/tum_office?rate=realtime&loop=1");
+}
+
+// The example documents every camera scheme the capture registry knows and both calibration
+// formats.
+TEST(DaemonConfig, ExampleConfigDocumentsEverySchemeAndCalibrationFormat) {
+  const std::string text = ReadText(kExample);
+  ASSERT_FALSE(FrameSourceSchemes().empty());
+  for (const std::string& scheme : FrameSourceSchemes()) {
+    EXPECT_TRUE(std::regex_search(text, std::regex("#\\s+" + scheme + ":")))
+        << "scheme " << scheme << " is not documented in " << kExample;
+  }
+  EXPECT_NE(text.find("TOML"), std::string::npos);
+  EXPECT_NE(text.find("Calib_Results.m"), std::string::npos);
+}
+
+// One source of truth for where the daemon writes: the default spool is in the unit's
+// StateDirectory, and the unit names no other writable path.
+TEST(DaemonConfig, DefaultSpoolIsInTheUnitsStateDirectory) {
+  const std::string unit =
+      ReadText(std::filesystem::path(MM_SOURCE_DIR) / "systemd/monomeshd.service");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(unit, m, std::regex("\nStateDirectory=(\\S+)\n"))) << unit;
+  const std::filesystem::path state = std::filesystem::path("/var/lib") / m[1].str();
+  const DaemonConfig d = ParseDaemonConfig(kMinimal, "/x/d.toml");
+  EXPECT_EQ(d.spool_dir.parent_path(), state);
+  EXPECT_EQ(unit.find("ReadWritePaths="), std::string::npos);
 }
 
 TEST(DaemonConfig, GpioButtonIsOptional) {
@@ -133,6 +236,20 @@ TEST(DaemonConfig, NumbersOutOfRangeAreErrorsNotWrapped) {
       m + "[spool]\nmax_entries = 1e3\n[keyframes]\ntimeout_s = 10\n", "/x/d.toml");
   EXPECT_EQ(c.spool_max_entries, 1000);
   EXPECT_EQ(c.keyframe_timeout_s, 10.0);
+}
+
+TEST(DaemonConfig, ControlSocketGroupAndMode) {
+  const DaemonConfig d = ParseDaemonConfig(kMinimal, "/x/d.toml");
+  EXPECT_EQ(d.control_group, "monomesh");
+  EXPECT_EQ(d.control_mode, 0660);
+  const DaemonConfig c = ParseDaemonConfig(
+      std::string(kMinimal) + "[control]\ngroup = \"\"\nmode = 0o640\n", "/x/d.toml");
+  EXPECT_EQ(c.control_group, "");
+  EXPECT_EQ(c.control_mode, 0640);
+  ExpectError(std::string(kMinimal) + "[control]\nmode = 0o1777\n", "control.mode': expected");
+  ExpectError(std::string(kMinimal) + "[control]\nmode = -1\n", "control.mode");
+  ExpectError(std::string(kMinimal) + "[control]\nmode = \"0660\"\n", "control.mode");
+  ExpectError(std::string(kMinimal) + "[control]\ngroup = 5\n", "control.group': wrong type");
 }
 
 TEST(DaemonConfig, SocketPathLongerThanASocketAddressIsAnError) {

@@ -1,5 +1,6 @@
 #include "app/control.h"
 
+#include <grp.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -7,6 +8,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <vector>
 
 namespace mm {
 namespace {
@@ -27,10 +29,45 @@ std::string Errno(const std::filesystem::path& path, const char* what) {
   return "control socket " + path.string() + ": " + what + ": " + std::strerror(errno);
 }
 
+// The gid of a group name. \throws ControlAccessError naming the key.
+gid_t GroupId(const std::string& name) {
+  group entry{};
+  group* found = nullptr;
+  std::vector<char> buf(16384);
+  int err = 0;
+  while ((err = ::getgrnam_r(name.c_str(), &entry, buf.data(), buf.size(), &found)) == ERANGE) {
+    buf.resize(buf.size() * 2);
+  }
+  if (found == nullptr) {
+    throw ControlAccessError("control.group: no group '" + name + "'" +
+                             (err != 0 ? std::string(": ") + std::strerror(err) : std::string()) +
+                             " (set [control] group to an existing group, or \"\" for the "
+                             "daemon's own)");
+  }
+  return entry.gr_gid;
+}
+
+// Gives the freshly bound socket file its group (-1: unchanged) and mode, before listen: nobody
+// can connect yet.
+void ApplyAccess(const std::filesystem::path& path, const ControlSocketAccess& access, gid_t gid) {
+  if (gid != static_cast<gid_t>(-1)) {
+    if (::lchown(path.c_str(), static_cast<uid_t>(-1), gid) != 0) {
+      throw ControlAccessError("control.group: control socket " + path.string() +
+                               ": cannot give it to group '" + access.group + "': " +
+                               std::strerror(errno) + " (the daemon's user must be in the group)");
+    }
+  }
+  if (::chmod(path.c_str(), static_cast<mode_t>(access.mode)) != 0) {
+    throw ControlAccessError("control.mode: control socket " + path.string() +
+                             ": chmod: " + std::strerror(errno));
+  }
+}
+
 }  // namespace
 
-UniqueFd ListenControlSocket(const std::filesystem::path& path) {
+UniqueFd ListenControlSocket(const std::filesystem::path& path, const ControlSocketAccess& access) {
   const sockaddr_un addr = Address(path);
+  const gid_t gid = access.group.empty() ? static_cast<gid_t>(-1) : GroupId(access.group);
   std::error_code ec;
   std::filesystem::create_directories(path.parent_path(), ec);
   // Whatever is at the path is removed only when it is a socket and nobody accepts on it
@@ -57,6 +94,12 @@ UniqueFd ListenControlSocket(const std::filesystem::path& path) {
   if (!fd.valid()) throw ControlError(Errno(path, "socket"));
   if (::bind(fd.get(), reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
     throw ControlError(Errno(path, "bind"));
+  }
+  try {
+    ApplyAccess(path, access, gid);
+  } catch (const ControlAccessError&) {
+    ::unlink(path.c_str());  // The file this call just bound.
+    throw;
   }
   if (::listen(fd.get(), 16) != 0) throw ControlError(Errno(path, "listen"));
   return fd;

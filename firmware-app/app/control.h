@@ -33,12 +33,27 @@ class ControlTimeout : public ControlError {
   using ControlError::ControlError;
 };
 
-/// Creates, binds and listens on `path` (non-blocking, close-on-exec). Only a stale socket (a
-/// socket file nobody accepts on: connect refused, left by a crashed daemon) is replaced; a
-/// live daemon on it is a ControlError, and anything at the path that is not a socket is a
-/// ControlPathError and stays untouched.
-/// \throws ControlError naming the path.
-UniqueFd ListenControlSocket(const std::filesystem::path& path);
+/// The socket file's group and permission bits ([control] group, mode).
+struct ControlSocketAccess {
+  std::string group;  ///< Group name; empty keeps the daemon's group.
+  unsigned mode = 0660;
+};
+
+/// The socket's group or mode cannot be applied (no such group, or the daemon may not give the
+/// socket to it): a configuration error naming the key.
+class ControlAccessError : public ControlError {
+ public:
+  using ControlError::ControlError;
+};
+
+/// Creates, binds and listens on `path` (non-blocking, close-on-exec). The socket file gets
+/// `access`'s group and mode after bind and before listen, so no client connects before they
+/// apply. Only a stale socket (a socket file nobody accepts on: connect refused, left by a
+/// crashed daemon) is replaced; a live daemon on it is a ControlError, and anything at the path
+/// that is not a socket is a ControlPathError and stays untouched.
+/// \throws ControlError naming the path (ControlAccessError for the group or mode).
+UniqueFd ListenControlSocket(const std::filesystem::path& path,
+                             const ControlSocketAccess& access = {});
 
 /// Sends one command and returns the reply line.
 /// \throws ControlError naming the socket when no daemon answers.

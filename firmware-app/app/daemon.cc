@@ -25,6 +25,7 @@
 #include "app/gate_thread.h"
 #include "app/pair_job.h"
 #include "base/unique_fd.h"
+#include "base/wall_clock.h"
 #include "calib/calib_io.h"
 #include "calib/undistort.h"
 #include "capture/capture_thread.h"
@@ -78,7 +79,11 @@ struct JobOutcome {
 };
 
 KeyframeInfo InfoOf(const Frame& f) {
-  return {f.sequence, f.source_time_s, f.capture_time_ns, f.source_id};
+  return {.sequence = f.sequence,
+          .source_time_s = f.source_time_s,
+          .capture_time_ns = f.capture_time_ns,
+          .capture_realtime_ns = RealtimeFromMonotonicNs(f.capture_time_ns),
+          .source = f.source_id};
 }
 
 // The reconstruction worker: a thread with a queue of at most one job.
@@ -425,7 +430,12 @@ int Daemon::Run() {
   spdlog::info("camera: {}", capture_->Describe());
 
   try {
-    listen_fd_ = ListenControlSocket(config_.control_socket);
+    listen_fd_ = ListenControlSocket(
+        config_.control_socket,
+        {.group = config_.control_group, .mode = static_cast<unsigned>(config_.control_mode)});
+  } catch (const ControlAccessError& e) {
+    spdlog::critical("config: {}", e.what());
+    return kExitConfig;
   } catch (const ControlPathError& e) {
     spdlog::critical("{}", e.what());
     return kExitConfig;

@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "base/wall_clock.h"
+
 namespace mm {
 
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
@@ -26,6 +28,8 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
   }
   out.report =
       MakeEntryReport(out.recon, a, b, camera, options, features_a != nullptr, tries, metric);
+  // Capture times are on this boot's CLOCK_MONOTONIC (frames read from files have none).
+  if (a.capture_time_ns != 0 || b.capture_time_ns != 0) out.report.boot_id = BootId();
   if (!out.recon.success) {
     out.error = out.recon.failure_reason;
     return out;

@@ -1,9 +1,11 @@
 // monomeshd end to end: the bundled TUM keyframes replayed through the virtual camera, a
 // trigger over the control socket, and the spool entry checked against ground truth.
+#include <grp.h>
 #include <poll.h>
 #include <sys/mount.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <sys/un.h>
 
@@ -31,8 +33,33 @@ TEST(Daemon, TriggerProducesCompleteEntryMatchingGroundTruth) {
   const fs::path entry = result["entry"].get<std::string>();
   ASSERT_EQ(entry.parent_path(), daemon.spool());
   ExpectCompleteEntry(entry);
+  // `latest` names the entry; watchers skip it (a symlink), so the spool shows one entry.
+  EXPECT_EQ(fs::read_symlink(daemon.spool() / "latest"), entry.filename());
+  EXPECT_EQ(VisibleEntries(daemon.spool()).size(), 1u);
+  // The control socket: group and owner read and write, nobody else (the default mode 0660).
+  struct stat sock {};
+  ASSERT_EQ(::lstat(daemon.socket().c_str(), &sock), 0);
+  EXPECT_TRUE(S_ISSOCK(sock.st_mode));
+  EXPECT_EQ(sock.st_mode & 07777, 0660u) << std::oct << (sock.st_mode & 07777);
 
   const EntryReport report = ReadReport(entry);
+  // Wall-clock capture times beside the monotonic ones, of this boot.
+  const int64_t now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::system_clock::now().time_since_epoch())
+                             .count();
+  for (const KeyframeInfo* k : {&report.keyframe_a, &report.keyframe_b}) {
+    EXPECT_GT(k->capture_time_ns, 0);
+    EXPECT_LE(k->capture_realtime_ns, now_ns);
+    EXPECT_GT(k->capture_realtime_ns, now_ns - int64_t{300'000'000'000});  // Within 5 min.
+  }
+  // The same clock offset for both (up to the jitter of reading the two clocks).
+  EXPECT_NEAR(
+      static_cast<double>(report.keyframe_b.capture_realtime_ns -
+                          report.keyframe_a.capture_realtime_ns),
+      static_cast<double>(report.keyframe_b.capture_time_ns - report.keyframe_a.capture_time_ns),
+      1e6);
+  EXPECT_EQ(report.boot_id, ReadAll("/proc/sys/kernel/random/boot_id").substr(0, 36));
+  EXPECT_EQ(report.schema_version, kEntryReportSchemaVersion);
   EXPECT_GT(report.counts.mesh_vertices, 200u);
   const std::string ply = ReadAll(entry / "mesh.ply");
   const auto pos = ply.find("element vertex ");
@@ -193,6 +220,34 @@ TEST(Daemon, SocketPathHoldingAFileOrFolderIsLeftAloneAndExits78) {
   log.clear();
   EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
   EXPECT_TRUE(fs::is_directory(daemon.socket() / "inside"));
+}
+
+// [control] group and mode apply to the socket file before the daemon listens; a group that
+// does not exist is a config error naming the key (exit 78), and nothing is left at the path.
+TEST(Daemon, ControlSocketGroupAndModeAreApplied) {
+  DaemonProcess daemon("sockmode", "rate=max&loop=1");
+  const std::string config = ReadAll(daemon.dir() / "monomeshd.toml");
+  auto with_access = [&](const std::string& access) {
+    std::string text = config;
+    text.replace(text.find(kControlAccess), kControlAccess.size(), access);
+    std::ofstream(daemon.dir() / "monomeshd.toml") << text;
+  };
+  const group* own = ::getgrgid(::getegid());
+  ASSERT_NE(own, nullptr);
+  with_access("group = \"" + std::string(own->gr_name) + "\"\nmode = 0o640\n");
+  daemon.Start();
+  struct stat sock {};
+  ASSERT_EQ(::lstat(daemon.socket().c_str(), &sock), 0);
+  EXPECT_EQ(sock.st_mode & 07777, 0640u) << std::oct << (sock.st_mode & 07777);
+  EXPECT_EQ(sock.st_gid, own->gr_gid);
+  EXPECT_EQ(WEXITSTATUS(daemon.Kill(SIGTERM)), 0);
+
+  with_access("group = \"mm-no-such-group\"\n");
+  std::string log;
+  EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
+  EXPECT_NE(log.find("control.group"), std::string::npos) << log;
+  EXPECT_NE(log.find("mm-no-such-group"), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(fs::symlink_status(daemon.socket())));
 }
 
 // Bytes that are not UTF-8 on the control socket: the reply echoes the command with U+FFFD and

@@ -76,7 +76,7 @@ appliance() {
   read fps max_rot max_trans parallax calib < $ds/check.conf
   d=/tmp/mm-$name
   mkdir -p $d/spool
-  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "%s"\n[control]\nsocket = "%s"\n[keyframes]\nparallax_deg = %s\n[spool]\ndir = "%s"\n' \
+  printf '[camera]\nuri = "v4l2:/dev/video10?format=yuyv"\ncalibration = "%s"\n[control]\nsocket = "%s"\ngroup = ""\n[keyframes]\nparallax_deg = %s\n[spool]\ndir = "%s"\n' \
     "$ds/$calib" $d/control.sock "$parallax" $d/spool > $d/monomeshd.toml
   monomesh feed --device /dev/video10 --dataset $ds --fps "$fps" --format yuyv --once \
     --hold-first --log $d/feed.log 2> $d/feed.err &
