@@ -133,6 +133,8 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "recon.min_inliers",
                                               "recon.max_depth_ratio",
                                               "recon.refine_points",
+                                              "mesh.mode",
+                                              "mesh.vertex_budget",
                                               "spool.dir",
                                               "spool.max_entries",
                                               "log.level"};
@@ -221,7 +223,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
     r.Require(false, recon, "recon", key.c_str(), problem.substr(problem.find(':') + 2));
   }
 
-  const auto* mesh = r.Table("mesh", {"mode", "vertex_budget"});
+  const auto* mesh = r.Table("mesh");
   std::string mode = MeshModeName(c.recon.mesh_mode);
   r.Get(mesh, "mesh", "mode", &mode);
   r.Require(ParseMeshMode(mode, &c.recon.mesh_mode), mesh, "mesh", "mode",

@@ -65,6 +65,8 @@ std::map<std::string, Value> CodeDefaults() {
       {"recon.min_inliers", int64_t{d.recon.two_view.min_inliers}},
       {"recon.max_depth_ratio", d.recon.mesh.max_depth_ratio},
       {"recon.refine_points", d.recon.refinement.enabled},
+      {"mesh.mode", std::string(MeshModeName(d.recon.mesh_mode))},
+      {"mesh.vertex_budget", int64_t{d.recon.dense_mesh.vertex_budget}},
       {"spool.dir", d.spool_dir.string()},
       {"spool.max_entries", int64_t{d.spool_max_entries}},
       {"log.level", d.log_level},
