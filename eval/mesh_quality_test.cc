@@ -129,6 +129,45 @@ TEST_F(MeshQuality, TumPairsMeetTheIssueThresholds) {
   }
 }
 
+// The dense mesh (the default) against the sparse one on the same pairs: it must beat it on
+// coverage, median and p90 depth error and the flying share, and look like B from B.
+TEST_F(MeshQuality, DenseMeshBeatsSparseOnEveryFigure) {
+  ASSERT_TRUE(renderer_->ok()) << renderer_->error();
+  for (int ib : {2, 3}) {
+    SCOPED_TRACE("pair (0," + std::to_string(ib) + ")");
+    const cv::Mat a = Image(0), b = Image(ib);
+    PairOptions sparse_options;
+    sparse_options.mesh_mode = MeshMode::kSparse;
+    const PairReconstruction sparse = ReconstructPair(a, b, camera_, sparse_options);
+    const PairReconstruction dense = ReconstructPair(a, b, camera_, PairOptions{});
+    ASSERT_TRUE(sparse.success && dense.success);
+    ASSERT_EQ(dense.mesh_mode, MeshMode::kDense) << dense.dense_failure_reason;
+    const PairFigures fs = Evaluate(sparse.mesh, sparse, a, b);
+    const PairFigures fd = Evaluate(dense.mesh, dense, a, b);
+    ASSERT_TRUE(fs.depth.success && fd.depth.success);
+    std::printf(
+        "pair (0,%d) sparse: %zu vertices, coverage %.3f, median %.4f, p90 %.4f, flying %.4f, "
+        "NCC B %.4f\npair (0,%d) dense:  %zu vertices, coverage %.3f, median %.4f, p90 %.4f, "
+        "flying %.4f, NCC B %.4f (dense %.3f s, %d planes, %.3f of A with depth)\n",
+        ib, sparse.mesh.vertices.size(), fs.depth.coverage, fs.depth.median_rel_err,
+        fs.depth.p90_rel_err, fs.depth.flying, fs.ncc_b, ib, dense.mesh.vertices.size(),
+        fd.depth.coverage, fd.depth.median_rel_err, fd.depth.p90_rel_err, fd.depth.flying,
+        fd.ncc_b, dense.times.dense_s, dense.dense_planes, dense.dense_valid_fraction);
+    EXPECT_GT(fd.depth.coverage, fs.depth.coverage);
+    EXPECT_LT(fd.depth.median_rel_err, fs.depth.median_rel_err);
+    EXPECT_LT(fd.depth.p90_rel_err, fs.depth.p90_rel_err);
+    EXPECT_LT(fd.depth.flying, fs.depth.flying);
+    // Measured: (0,2) coverage 0.887, median 1.94 %, p90 8.4 %, flying 8.0 %; (0,3) 0.791,
+    // 2.01 %, 9.4 %, 9.3 %.
+    EXPECT_GE(fd.depth.coverage, ib == 2 ? 0.85 : 0.75);
+    EXPECT_LE(fd.depth.median_rel_err, 0.023);
+    EXPECT_LE(fd.depth.p90_rel_err, 0.10);
+    EXPECT_LE(fd.depth.flying, 0.105);
+    EXPECT_GE(fd.ncc_b, 0.90);
+    EXPECT_LE(dense.mesh.vertices.size(), static_cast<size_t>(DenseMeshOptions{}.vertex_budget));
+  }
+}
+
 // Not a threshold test: prints the figures per meshing option (the measurement behind the
 // defaults in MeshOptions), and checks that each variant still builds a usable mesh.
 TEST_F(MeshQuality, MeshingOptionSweep) {
