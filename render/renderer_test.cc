@@ -168,7 +168,7 @@ TEST_F(RendererTest, PreviewHasBothViews) {
   std::string error;
   const cv::Mat preview = RenderPreview(*renderer_, mesh, Texture(), K, kW, kH, &error);
   ASSERT_FALSE(preview.empty()) << error;
-  EXPECT_EQ(preview.cols, 2 * kW);
+  EXPECT_EQ(preview.cols, 3 * kW);
   cv::Mat gray;
   cv::cvtColor(preview, gray, cv::COLOR_BGR2GRAY);
   EXPECT_GT(cv::countNonZero(gray.colRange(0, kW)), kW * kH / 2);
@@ -176,6 +176,14 @@ TEST_F(RendererTest, PreviewHasBothViews) {
   const int oblique = cv::countNonZero(gray.colRange(kW, 2 * kW));
   EXPECT_GT(oblique, kW * kH / 10);
   EXPECT_LT(oblique, cv::countNonZero(gray.colRange(0, kW)));
+  // The shaded view covers the same pixels as the textured oblique one, in one flat grey (a
+  // plane: one normal), not the texture's pattern.
+  const cv::Mat shaded = gray.colRange(2 * kW, 3 * kW);
+  EXPECT_NEAR(cv::countNonZero(shaded), oblique, oblique / 20);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(shaded, mean, stddev, shaded > 0);
+  EXPECT_GT(mean[0], 40);
+  EXPECT_LT(stddev[0], 3.0);
 }
 
 // A mesh uploaded once and drawn from many cameras (synthetic sequences): each draw equals a
