@@ -1,5 +1,6 @@
 #include "recon/dense.h"
 
+#include "base/stats.h"
 #include "recon/sgm.h"
 
 #include <Eigen/Dense>
@@ -33,12 +34,6 @@ Eigen::Matrix3d PlaneHomography(const Eigen::Matrix3d& K, const Eigen::Matrix3d&
   Eigen::Matrix3d M = R;
   M.col(2) += t * rho;
   return K * M * K_inv;
-}
-
-double Quantile(std::vector<double> v, double q) {
-  const size_t k = static_cast<size_t>(q * static_cast<double>(v.size() - 1));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
 }
 
 // Median of the valid 3x3 neighbours of each valid pixel (removes single-pixel spikes of the
@@ -173,8 +168,8 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
     out.failure_reason = "dense: fewer than 10 sparse points in front of A for the depth range";
     return out;
   }
-  const double rho_max = Quantile(rhos, 0.98) * options.near_margin;
-  const double rho_min = Quantile(rhos, 0.02) / options.far_margin;
+  const double rho_max = QuantileOf(rhos, 0.98) * options.near_margin;
+  const double rho_min = QuantileOf(rhos, 0.02) / options.far_margin;
 
   // Shrunk images and camera.
   const int f = options.downscale;
