@@ -230,8 +230,10 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   // cache-sized blocks to pixel-major for the aggregation: cost[(y * width + x) * planes + d].
   const size_t pixels = static_cast<size_t>(width) * height;
   // The volumes are kept per thread between calls: at 320x240 x 64 planes each is 10 MB, and
-  // fresh pages for them cost more than the sweep itself (measured: 45 % of the stage).
-  thread_local std::vector<uint16_t> cost_by_plane, cost, sum;
+  // fresh pages for them cost more than the sweep itself (measured: 45 % of the stage). The
+  // plane-major costs live in the sum's volume until the transpose.
+  thread_local std::vector<uint16_t> cost, sum;
+  std::vector<uint16_t>& cost_by_plane = sum;
   cost_by_plane.assign(pixels * planes, kNeutralCost);
   // Per-plane images allocated once (a fresh large allocation per plane costs page faults).
   cv::Mat warped(a.size(), CV_32F), ww(a.size(), CV_32F), aw(a.size(), CV_32F);
