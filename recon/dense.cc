@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -214,17 +215,14 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
 
   // A's window statistics.
   const cv::Size window(2 * r + 1, 2 * r + 1);
-  cv::Mat a, b, mean_a, mean_aa, tmp;
+  cv::Mat a, b, mean_a, mean_aa;
   a8.convertTo(a, CV_32F);
   b8.convertTo(b, CV_32F);
   cv::boxFilter(a, mean_a, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
   cv::boxFilter(a.mul(a), mean_aa, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
   cv::Mat var_a = mean_aa - mean_a.mul(mean_a);
   const float min_var = static_cast<float>(options.min_texture_std * options.min_texture_std);
-  cv::Mat textured(height, width, CV_8UC1);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) textured.at<uint8_t>(y, x) = var_a.at<float>(y, x) >= min_var;
-  }
+  const cv::Mat textured = var_a >= min_var;  // 255 where textured.
 
   // Cost volume, filled plane by plane (plane-major, contiguous writes), then transposed in
   // cache-sized blocks to pixel-major for the aggregation: cost[(y * width + x) * planes + d].
@@ -240,10 +238,8 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   cv::Mat mean_w(a.size(), CV_32F), mean_ww(a.size(), CV_32F), mean_aw(a.size(), CV_32F);
   for (int d = 0; d < planes; ++d) {
     const Eigen::Matrix3d H = PlaneHomography(Ks, Ks_inv, R, t, rho_min + d * rho_step);
-    cv::Mat Hcv(3, 3, CV_64F);
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) Hcv.at<double>(i, j) = H(i, j);
-    }
+    cv::Mat Hcv;
+    cv::eigen2cv(H, Hcv);
     cv::warpPerspective(b, warped, Hcv, a.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                         cv::BORDER_REPLICATE);
     cv::multiply(warped, warped, ww);
@@ -300,8 +296,11 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   penalties.edge_tau = options.edge_tau;
   sum.assign(pixels * planes, 0);
   const cv::Mat guide = a8.isContinuous() ? a8 : a8.clone();
-  AggregateSgm(cost, std::span<const uint8_t>(guide.data, pixels), width, height, planes, penalties,
-               sum);
+  if (!AggregateSgm(cost, std::span<const uint8_t>(guide.data, pixels), width, height, planes,
+                    penalties, sum)) {
+    out.failure_reason = "dense: the cost volume does not fit the aggregation's 16-bit sums";
+    return out;
+  }
 
   // Winner-take-all, the parabola through the minimum and its neighbours, the checks.
   cv::Mat plane_x16(height, width, CV_16SC1, cv::Scalar(-1));
@@ -336,7 +335,6 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
                        16 * options.speckle_planes);
   }
   cv::Mat rho(height, width, CV_32FC1, cv::Scalar(0));
-  int valid = 0;
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       const int16_t v = plane_x16.at<int16_t>(y, x);
@@ -345,14 +343,13 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
         continue;
       }
       rho.at<float>(y, x) = static_cast<float>(rho_min + rho_step * v / 16.0);
-      ++valid;
     }
   }
   out.inverse_depth = MedianOfValid(rho);
   FillSmallHoles(static_cast<int>(options.max_hole_fraction * static_cast<double>(pixels)),
                  static_cast<float>(options.min_confidence), &out.inverse_depth, &confidence);
   out.confidence = confidence;
-  valid = cv::countNonZero(out.inverse_depth > 0);
+  const int valid = cv::countNonZero(out.inverse_depth > 0);
   out.valid_fraction = static_cast<double>(valid) / static_cast<double>(pixels);
   if (valid == 0) {
     out.failure_reason = "dense: no pixel has a confident depth";

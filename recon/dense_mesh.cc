@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <queue>
 #include <unordered_set>
@@ -21,6 +22,9 @@ struct Cell {
 // The cell's corners, clamped to the image.
 struct Corners {
   int x0, y0, x1, y1;
+  [[nodiscard]] std::array<std::pair<int, int>, 4> Pixels() const {
+    return {{{x0, y0}, {x1, y0}, {x0, y1}, {x1, y1}}};
+  }
 };
 
 Corners CornersOf(const Cell& c, int width, int height) {
@@ -96,8 +100,7 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
   std::vector<Cell> leaves;
   std::unordered_set<long> corners;
   auto add_corners = [&](const Cell& c) {
-    const Corners k = CornersOf(c, width, height);
-    for (const auto& [x, y] : {std::pair{k.x0, k.y0}, {k.x1, k.y0}, {k.x0, k.y1}, {k.x1, k.y1}}) {
+    for (const auto& [x, y] : CornersOf(c, width, height).Pixels()) {
       corners.insert(static_cast<long>(y) * width + x);
     }
   };
@@ -137,8 +140,7 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
   std::vector<Eigen::Vector3d> points;
   const Eigen::Matrix3d K_inv = K.inverse();
   for (const Cell& c : leaves) {
-    const Corners k = CornersOf(c, width, height);
-    for (const auto& [x, y] : {std::pair{k.x0, k.y0}, {k.x1, k.y0}, {k.x0, k.y1}, {k.x1, k.y1}}) {
+    for (const auto& [x, y] : CornersOf(c, width, height).Pixels()) {
       if (!seen.insert(static_cast<long>(y) * width + x).second) continue;
       const double rho = InverseDepthAt(depth, x, y);
       if (rho > 0) points.push_back(K_inv * Eigen::Vector3d(x, y, 1.0) / rho);

@@ -55,23 +55,18 @@ cv::Mat ToGray(const cv::Mat& image) {
   return gray;
 }
 
-bool ParseMeshMode(std::string_view name, MeshMode* mode) {
-  if (name == "dense") {
-    *mode = MeshMode::kDense;
-  } else if (name == "sparse") {
-    *mode = MeshMode::kSparse;
-  } else {
-    return false;
-  }
-  return true;
+std::optional<MeshMode> ParseMeshMode(std::string_view name) {
+  if (name == "dense") return MeshMode::kDense;
+  if (name == "sparse") return MeshMode::kSparse;
+  return std::nullopt;
 }
 
 const char* MeshModeName(MeshMode mode) { return mode == MeshMode::kDense ? "dense" : "sparse"; }
 
 std::string PairOptions::Check() const {
-  for (const std::string& problem : {sift.Check(), match.Check(), two_view.Check(),
-                                     refinement.Check(), mesh.Check(), dense.Check(),
-                                     dense_mesh.Check()}) {
+  for (const std::string& problem :
+       {sift.Check(), match.Check(), two_view.Check(), refinement.Check(), mesh.Check(),
+        dense.Check(), dense_mesh.Check()}) {
     if (!problem.empty()) return problem;
   }
   if (!(track_duplicate_px >= 0)) return "track_duplicate_px: must be >= 0";
@@ -153,15 +148,15 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
     out.point_pixels_a.push_back(pixels_a[static_cast<size_t>(index)]);
     out.point_pixels_b.push_back(pixels_b[static_cast<size_t>(index)]);
   }
-  out.refinement = RefinePoints(ToGray(image_a), gray_b, camera.K(), options.two_view,
-                                options.refinement, out.point_pixels_a, &out.point_pixels_b,
-                                &out.geometry);
+  const cv::Mat gray_a = ToGray(image_a);
+  out.refinement = RefinePoints(gray_a, gray_b, camera.K(), options.two_view, options.refinement,
+                                out.point_pixels_a, &out.point_pixels_b, &out.geometry);
   out.times.geometry_s = SecondsSince(start);
 
   if (options.mesh_mode == MeshMode::kDense) {
     start = Clock::now();
     const DenseDepth depth =
-        ComputeDenseDepth(ToGray(image_a), gray_b, camera.K(), out.geometry.rotation,
+        ComputeDenseDepth(gray_a, gray_b, camera.K(), out.geometry.rotation,
                           out.geometry.translation, out.geometry.points_in_cam_a, options.dense);
     out.times.dense_s = SecondsSince(start);
     out.dense_valid_fraction = depth.valid_fraction;

@@ -7,9 +7,10 @@
 // Thread-safety: pure function; reentrant.
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <span>
-#include <string_view>
 #include <string>
+#include <string_view>
 
 #include "calib/camera_model.h"
 #include "recon/dense.h"
@@ -32,8 +33,8 @@ struct TrackCorrespondence {
 /// sparse one (recon/mesh.h, Delaunay of the triangulated points).
 enum class MeshMode { kDense, kSparse };
 
-/// "dense" / "sparse"; false for another name.
-bool ParseMeshMode(std::string_view name, MeshMode* mode);
+/// "dense" / "sparse"; nullopt for another name.
+std::optional<MeshMode> ParseMeshMode(std::string_view name);
 const char* MeshModeName(MeshMode mode);
 
 struct PairOptions {
@@ -42,9 +43,9 @@ struct PairOptions {
   TwoViewOptions two_view;
   PointRefinementOptions refinement;
   MeshMode mesh_mode = MeshMode::kDense;
-  MeshOptions mesh;            ///< The sparse mesh (and the fallback of the dense one).
-  DenseOptions dense;          ///< The dense depth (mesh_mode kDense).
-  DenseMeshOptions dense_mesh; ///< The dense mesh.
+  MeshOptions mesh;             ///< The sparse mesh (and the fallback of the dense one).
+  DenseOptions dense;           ///< The dense depth (mesh_mode kDense).
+  DenseMeshOptions dense_mesh;  ///< The dense mesh.
   /// Tracks join the SIFT matches as correspondences; a track whose A pixel lies within this
   /// of a matched SIFT keypoint in A is the same point twice and is left out.
   double track_duplicate_px = 2.0;
@@ -56,7 +57,7 @@ struct StageTimes {
   double features_b_s = 0;
   double matching_s = 0;
   double geometry_s = 0;  ///< Two-view geometry and the point refinement.
-  double dense_s = 0;    ///< The dense depth (mesh_mode kDense).
+  double dense_s = 0;     ///< The dense depth (mesh_mode kDense).
   double meshing_s = 0;
   [[nodiscard]] double total_s() const {
     return features_a_s + features_b_s + matching_s + geometry_s + dense_s + meshing_s;
@@ -80,9 +81,9 @@ struct PairReconstruction {
   /// (with the dense stage's failure in dense_failure_reason).
   MeshMode mesh_mode = MeshMode::kSparse;
   Mesh mesh;
-  MeshSummary mesh_summary;            ///< The sparse mesh's (when it was built).
-  DenseMeshSummary dense_mesh_summary; ///< The dense mesh's.
-  double dense_valid_fraction = 0;     ///< Share of A (shrunk) with a dense depth.
+  MeshSummary mesh_summary;             ///< The sparse mesh's (when it was built).
+  DenseMeshSummary dense_mesh_summary;  ///< The dense mesh's.
+  double dense_valid_fraction = 0;      ///< Share of A (shrunk) with a dense depth.
   int dense_planes = 0;
   std::string dense_failure_reason;
   StageTimes times;

@@ -226,8 +226,10 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   const auto* mesh = r.Table("mesh");
   std::string mode = MeshModeName(c.recon.mesh_mode);
   r.Get(mesh, "mesh", "mode", &mode);
-  r.Require(ParseMeshMode(mode, &c.recon.mesh_mode), mesh, "mesh", "mode",
+  const std::optional<MeshMode> mesh_mode = ParseMeshMode(mode);
+  r.Require(mesh_mode.has_value(), mesh, "mesh", "mode",
             "'" + mode + "' is not a mesh mode (dense or sparse)");
+  c.recon.mesh_mode = mesh_mode.value_or(c.recon.mesh_mode);
   r.GetNumber(mesh, "mesh", "vertex_budget", {16, 1000000}, &c.recon.dense_mesh.vertex_budget);
 
   // The gate applies the reconstruction's own tests (one notion of "enough parallax").

@@ -159,10 +159,11 @@ TEST(DaemonConfig, DefaultSpoolIsInTheUnitsStateDirectory) {
 
 TEST(DaemonConfig, GpioButtonIsOptional) {
   EXPECT_FALSE(ParseDaemonConfig(kMinimal, "/x/d.toml").button_enabled);
-  const DaemonConfig c = ParseDaemonConfig(
-      std::string(kMinimal) + "[trigger]\ngpio_chip = \"pinctrl-bcm2711\"\ngpio_line = \"GPIO17\"\n"
-                              "active_low = true\nbias = \"pull-up\"\ndebounce_ms = 50\n",
-      "/x/d.toml");
+  const DaemonConfig c =
+      ParseDaemonConfig(std::string(kMinimal) +
+                            "[trigger]\ngpio_chip = \"pinctrl-bcm2711\"\ngpio_line = \"GPIO17\"\n"
+                            "active_low = true\nbias = \"pull-up\"\ndebounce_ms = 50\n",
+                        "/x/d.toml");
   EXPECT_TRUE(c.button_enabled);
   EXPECT_EQ(c.button.chip, "pinctrl-bcm2711");
   EXPECT_EQ(c.button.line, "GPIO17");
@@ -179,19 +180,20 @@ TEST(DaemonConfig, RelativePathsResolveAgainstConfigFolder) {
 TEST(DaemonConfig, ErrorsNameTheKey) {
   ExpectError(std::string(kMinimal) + "[spool]\ndirr = \"x\"\n", "spool.dirr");
   ExpectError(std::string(kMinimal) + "[spol]\n", "'spol': unknown table");
-  ExpectError(std::string(kMinimal) + "[keyframes]\nparallax_deg = 0\n",
-              "keyframes.parallax_deg");
+  ExpectError(std::string(kMinimal) + "[keyframes]\nparallax_deg = 0\n", "keyframes.parallax_deg");
   ExpectError(std::string(kMinimal) + "[keyframes]\nb_after_frames = 2\n",
               "keyframes.b_after_frames': unknown key");
   ExpectError(std::string(kMinimal) + "[keyframes]\ntimeout_s = \"soon\"\n",
               "keyframes.timeout_s': wrong type");
   ExpectError(std::string(kMinimal) + "[recon]\nmatch_ratio = 1.5\n", "recon.match_ratio");
   ExpectError(std::string(kMinimal) + "[recon]\nsift = \"surf\"\n", "recon.sift");
+  ExpectError(std::string(kMinimal) + "[mesh]\nmode = \"dense2\"\n", "mesh.mode");
+  ExpectError(std::string(kMinimal) + "[mesh]\nvertex_budget = 4294967297\n", "mesh.vertex_budget");
   ExpectError(std::string(kMinimal) + "[recon]\nrefine_points = 1\n",
               "recon.refine_points': wrong type");
-  EXPECT_FALSE(ParseDaemonConfig(std::string(kMinimal) + "[recon]\nrefine_points = false\n",
-                                 "/x/d.toml")
-                   .recon.refinement.enabled);
+  EXPECT_FALSE(
+      ParseDaemonConfig(std::string(kMinimal) + "[recon]\nrefine_points = false\n", "/x/d.toml")
+          .recon.refinement.enabled);
   // One notion of parallax: the gate's target may not be below the reconstruction's minimum.
   ExpectError(std::string(kMinimal) + "[recon]\nmin_parallax_deg = 2.5\n",
               "keyframes.parallax_deg");
@@ -265,9 +267,9 @@ TEST(DaemonConfig, ControlSocketGroupAndMode) {
 }
 
 TEST(DaemonConfig, SocketPathLongerThanASocketAddressIsAnError) {
-  ExpectError(std::string(kMinimal) + "[control]\nsocket = \"/run/" + std::string(120, 's') +
-                  "\"\n",
-              "control.socket");
+  ExpectError(
+      std::string(kMinimal) + "[control]\nsocket = \"/run/" + std::string(120, 's') + "\"\n",
+      "control.socket");
 }
 
 }  // namespace

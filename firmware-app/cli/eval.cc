@@ -131,7 +131,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.two_view.lo_ransac = args.lo_ransac;
   options.pair.refinement.enabled = args.refine_points;
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
-  ParseMeshMode(args.mesh_mode, &options.pair.mesh_mode);   // CLI11 checked the name.
+  options.pair.mesh_mode = *ParseMeshMode(args.mesh_mode);  // CLI11 checked the name.
   if (args.captures) return RunCaptureEval(args, camera, options.pair);
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";

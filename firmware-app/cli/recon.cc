@@ -37,9 +37,9 @@ int RunRecon(const std::string& path_a, const std::string& path_b, const std::st
     images[i] = undistorter.Apply(images[i]);
   }
   PairOptions options;
-  ParseMeshMode(mesh_mode, &options.mesh_mode);  // CLI11 checked the name.
-  const PairJobResult result = RunPairJob(images[0], images[1], info[0], info[1],
-                                          undistorter.output_camera(), options);
+  options.mesh_mode = *ParseMeshMode(mesh_mode);  // CLI11 checked the name.
+  const PairJobResult result =
+      RunPairJob(images[0], images[1], info[0], info[1], undistorter.output_camera(), options);
   if (!result.ok) {
     std::cerr << "monomesh recon: " << result.error << "\n";
     return 1;
