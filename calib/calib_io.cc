@@ -3,10 +3,10 @@
 #include <toml++/toml.h>
 
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 
 #include "base/checked_number.h"
+#include "base/text_file.h"
 #include "calib/calib_results_m.h"
 
 namespace mm {
@@ -23,9 +23,9 @@ namespace {
 // What each field may hold (base/checked_number.h): magnitudes far beyond any real camera
 // but finite, so nothing absurd reaches the camera model or OpenCV's undistortion maps.
 constexpr NumberRange<int> kImageSide{1, kMaxImageSide};
-constexpr NumberRange<double> kPixels{-1e6, 1e6};        // fc, cc
-constexpr NumberRange<double> kCoefficient{-1e6, 1e6};   // kc, alpha_c
-constexpr NumberRange<double> kUncertainty{0.0, 1e6};    // [camera.error]
+constexpr NumberRange<double> kPixels{-1e6, 1e6};       // fc, cc
+constexpr NumberRange<double> kCoefficient{-1e6, 1e6};  // kc, alpha_c
+constexpr NumberRange<double> kUncertainty{0.0, 1e6};   // [camera.error]
 
 // Reads an array of numbers of one of the allowed lengths, each within `range`.
 template <typename T>
@@ -134,11 +134,10 @@ BouguetCamera ParseCalibrationToml(const std::string& text, const std::string& s
 }
 
 BouguetCamera LoadCalibration(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw CalibrationError(path.string() + ": cannot open calibration file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  const std::string content = text.str();
+  std::string error;
+  const std::optional<std::string> text = ReadTextFile(path, kMaxDataFileBytes, &error);
+  if (!text) throw CalibrationError(error);
+  const std::string& content = *text;
   // Both formats load anywhere: Calib_Results.m by extension or content, else the TOML format.
   if (path.extension() == ".m" || LooksLikeCalibResultsM(content)) {
     return ParseCalibResultsM(content, path.string()).camera;

@@ -65,6 +65,18 @@ TEST(CalibIo, ErrorsNameTheField) {
   ExpectErrorMentions("[other]\n", "[camera]");
 }
 
+// A distortion the undistortion cannot invert over the image (here a strong barrel term that
+// folds back before the corners) is refused at load, naming camera.kc and a pixel; a wide but
+// regular lens loads.
+TEST(CalibIo, DistortionThatDoesNotInvertOverTheImageNamesKc) {
+  const std::string head = "[camera]\nimage_size = [640, 480]\nfc = [300, 300]\ncc = [320, 240]\n";
+  ExpectErrorMentions(head + "kc = [-0.8, 0, 0, 0]\n", "camera.kc");
+  ExpectErrorMentions(head + "kc = [-0.8, 0, 0, 0]\n", "not invertible over the 640x480 image");
+  ExpectErrorMentions(head + "kc = [0.5, -0.6, 0, 0]\n", "camera.kc");  // Folds at r = 0.94.
+  const BouguetCamera wide = ParseCalibrationToml(head + "kc = [-0.3, 0.09, 0.001, 0.001]\n", "w");
+  EXPECT_TRUE(wide.CheckInvertible().empty());
+}
+
 // Every number through one checked conversion: image sizes that would make OpenCV throw (or
 // wrap through a cast to int), non-finite and absurd values are errors naming the field.
 TEST(CalibIo, NumbersOutOfRangeNameTheField) {
@@ -74,17 +86,20 @@ TEST(CalibIo, NumbersOutOfRangeNameTheField) {
   ExpectErrorMentions("[camera]\nimage_size=[4294967936,480]\n" + rest, "camera.image_size");
   ExpectErrorMentions("[camera]\nimage_size=[640.5,480]\n" + rest, "camera.image_size");
   ExpectErrorMentions("[camera]\nimage_size=[0,480]\n" + rest, "camera.image_size");
-  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[inf,500]\ncc=[320,240]\n"
-                      "kc=[0,0,0,0]\n",
-                      "camera.fc");
-  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[500,500]\ncc=[1e300,240]\n"
-                      "kc=[0,0,0,0]\n",
-                      "camera.cc");
+  ExpectErrorMentions(
+      "[camera]\nimage_size=[640,480]\nfc=[inf,500]\ncc=[320,240]\n"
+      "kc=[0,0,0,0]\n",
+      "camera.fc");
+  ExpectErrorMentions(
+      "[camera]\nimage_size=[640,480]\nfc=[500,500]\ncc=[1e300,240]\n"
+      "kc=[0,0,0,0]\n",
+      "camera.cc");
   ExpectErrorMentions("[camera]\nimage_size=[640,480]\n" + rest + "alpha_c = nan\n",
                       "camera.alpha_c");
-  ExpectErrorMentions("[camera]\nimage_size=[640,480]\nfc=[500,500]\ncc=[320,240]\n"
-                      "kc=[0,0,-inf,0]\n",
-                      "camera.kc");
+  ExpectErrorMentions(
+      "[camera]\nimage_size=[640,480]\nfc=[500,500]\ncc=[320,240]\n"
+      "kc=[0,0,-inf,0]\n",
+      "camera.kc");
   ExpectErrorMentions("[camera]\nimage_size=[640,480]\n" + rest +
                           "[camera.error]\nfc=[1,1]\ncc=[1,1]\nkc=[0,0,0,nan]\n",
                       "camera.error.kc");

@@ -1,4 +1,4 @@
-// libFuzzer target for the Calib_Results.m reader (build: cmake --preset fuzz; see .ci/run).
+// libFuzzer target for the Calib_Results.m reader (the fuzz preset; scripts/fuzz.sh).
 // Any input either parses or throws CalibrationError; what parses must survive the writer and
 // read back to the same values.
 

@@ -99,8 +99,12 @@ struct BouguetCamera {
   /// The same camera without distortion (what an undistorted frame is seen through).
   [[nodiscard]] BouguetCamera Undistorted() const;
 
-  /// Empty when valid, otherwise a message naming the bad field.
+  /// Empty when valid, otherwise a message naming the bad field. Includes CheckInvertible.
   [[nodiscard]] std::string Check() const;
+  /// With an image size: empty when the distortion inverts over an ellipse reaching 90 % of
+  /// the way to each image edge (a grid of pixels inside it and its rim unproject and project
+  /// back within 0.05 px without crossing a fold), else a message naming kc and the pixel.
+  [[nodiscard]] std::string CheckInvertible() const;
 };
 
 }  // namespace mm

@@ -1,18 +1,21 @@
 #include "capture/replay_source.h"
 
+#include <time.h>
 #include <charconv>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
-#include <time.h>
 
 #include "capture/source_uri.h"
 
 namespace mm {
 
 std::string ReplayOptions::Check() const {
-  if (!(speed > 0.0)) return "speed: must be > 0";
+  if (!(speed >= kMinReplaySpeed && speed <= kMaxReplaySpeed)) {
+    return "speed: must be in " + std::to_string(kMinReplaySpeed) + ".." +
+           std::to_string(kMaxReplaySpeed);
+  }
   if (list.empty()) return "list: must name a file";
   return {};
 }
@@ -24,10 +27,16 @@ std::string ReplaySource::Open() {
   if (std::string problem = options_.Check(); !problem.empty()) {
     return "replay:" + folder_.string() + ": " + problem;
   }
+  const std::filesystem::path list = folder_ / options_.list;
   try {
-    frames_ = ReadTumList(folder_ / options_.list);
+    frames_ = ReadTumList(list);
   } catch (const DatasetError& e) {
     return std::string("replay: ") + e.what();
+  }
+  if (std::string problem = CheckTimeOrder(frames_, kMaxReplayGapS, list.string());
+      !problem.empty()) {
+    frames_.clear();
+    return "replay: " + problem;
   }
   next_ = 0;
   sequence_ = 0;
@@ -45,8 +54,8 @@ ReadStatus ReplaySource::Read(Frame* frame, std::chrono::milliseconds timeout, s
     if (!options_.loop) return ReadStatus::kEndOfStream;
     // Keep dataset time increasing across passes: one mean frame interval after the last one.
     const double span = frames_.back().timestamp_s - frames_.front().timestamp_s;
-    pass_offset_s_ += span + (frames_.size() > 1 ? span / static_cast<double>(frames_.size() - 1)
-                                                 : 1.0);
+    pass_offset_s_ +=
+        span + (frames_.size() > 1 ? span / static_cast<double>(frames_.size() - 1) : 1.0);
     next_ = 0;
   }
   const TumFrame& item = frames_[next_];
@@ -64,8 +73,8 @@ ReadStatus ReplaySource::Read(Frame* frame, std::chrono::milliseconds timeout, s
       std::this_thread::sleep_for(wait);
     }
   }
-  cv::Mat image = cv::imread(item.path.string(),
-                             options_.gray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+  cv::Mat image =
+      cv::imread(item.path.string(), options_.gray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
   if (image.empty()) {
     *error = "replay: cannot decode image " + item.path.string();
     ++next_;  // Skip it: a corrupt file must not stall the stream.
@@ -104,11 +113,7 @@ std::unique_ptr<FrameSource> MakeReplaySource(const SourceUri& p, const std::str
       }
       options.realtime = value == "realtime";
     } else if (key == "speed") {
-      const auto r = std::from_chars(value.data(), value.data() + value.size(), options.speed);
-      if (r.ec != std::errc() || r.ptr != value.data() + value.size() || !(options.speed > 0)) {
-        throw SourceUriError("camera URI '" + p.text + "': speed=" + value +
-                             " (expected a number > 0)");
-      }
+      options.speed = UriNumber<double>(p, key, value, kMinReplaySpeed, kMaxReplaySpeed);
     } else if (key == "loop") {
       options.loop = UriBool(p, key, value);
     } else if (key == "gray") {
@@ -116,13 +121,7 @@ std::unique_ptr<FrameSource> MakeReplaySource(const SourceUri& p, const std::str
     } else if (key == "list") {
       options.list = value;
     } else if (key == "width" || key == "height") {
-      int v = 0;
-      const auto r = std::from_chars(value.data(), value.data() + value.size(), v);
-      if (r.ec != std::errc() || r.ptr != value.data() + value.size() || v <= 0 || v > 16384) {
-        throw SourceUriError("camera URI '" + p.text + "': " + key + "=" + value +
-                             " (expected a size in pixels)");
-      }
-      (key == "width" ? options.width : options.height) = v;
+      (key == "width" ? options.width : options.height) = UriNumber<int>(p, key, value, 1, 16384);
     } else {
       throw SourceUriError("camera URI '" + p.text + "': unknown parameter '" + key +
                            "' (replay takes rate, speed, loop, gray, list, width, height)");

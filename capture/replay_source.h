@@ -11,6 +11,13 @@
 
 namespace mm {
 
+/// Playback speed factors accepted (`speed=` in the URI).
+inline constexpr double kMinReplaySpeed = 0.001;
+inline constexpr double kMaxReplaySpeed = 1000.0;
+/// The longest gap between neighbouring timestamps of a replayed list: a recording pauses for
+/// seconds, not minutes; a larger gap is a broken list, not a camera that waits.
+inline constexpr double kMaxReplayGapS = 60.0;
+
 struct ReplayOptions {
   std::string list = "rgb.txt";  ///< The list file inside the folder.
   bool realtime = true;          ///< Pace by the recorded timestamps; false: as fast as possible.

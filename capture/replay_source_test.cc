@@ -119,6 +119,26 @@ TEST(ReplaySource, MissingListIsAnOpenErrorNamingThePath) {
   EXPECT_NE(error.find("/nonexistent/dataset/rgb.txt"), std::string::npos) << error;
 }
 
+// A list whose timestamps go back in time or jump by minutes is a broken recording: Open says
+// which line, instead of pacing the replay by it (a 1e9 s jump would wait for 30 years).
+TEST(ReplaySource, TimestampOutOfOrderOrFarFromItsNeighboursIsAnOpenError) {
+  const auto dir = MakeDataset("timestamps", 3);
+  const auto write_list = [&](const std::string& third) {
+    std::ofstream(dir / "rgb.txt") << "# timestamp filename\n100.0 rgb/0.png\n100.05 rgb/1.png\n"
+                                   << third << " rgb/2.png\n";
+  };
+  for (const char* third : {"99.0", "1e9", "161"}) {
+    write_list(third);
+    ReplaySource source(dir, ReplayOptions{});
+    const std::string error = source.Open();
+    EXPECT_NE(error.find((dir / "rgb.txt").string() + ":4: timestamp"), std::string::npos)
+        << third << ": " << error;
+  }
+  write_list("159");  // 59 s: a pause, accepted.
+  ReplaySource source(dir, ReplayOptions{});
+  EXPECT_EQ(source.Open(), "");
+}
+
 TEST(SourceUri, ParsesReplayAndRejectsBadParameters) {
   EXPECT_NE(CreateFrameSource("replay:data/x?rate=max&loop=1", "/base"), nullptr);
   EXPECT_NE(CreateFrameSource("replay:data/x?rate=max", "/base")->Describe().find("/base/data/x"),
@@ -126,6 +146,8 @@ TEST(SourceUri, ParsesReplayAndRejectsBadParameters) {
   EXPECT_THROW(CreateFrameSource("replay:x?rate=fast"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("replay:x?bogus=1"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("replay:x?speed=-1"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("replay:x?speed=inf"), SourceUriError);
+  EXPECT_THROW(CreateFrameSource("replay:x?speed=1e-300"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("replay:x?width=640"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("replay:x?width=0&height=10"), SourceUriError);
   EXPECT_THROW(CreateFrameSource("nocolon"), SourceUriError);

@@ -20,9 +20,11 @@ endif()
 # builds `mm_libraries monomeshd monomesh mm_unit_tests`, not the integration tests or benchmarks):
 #   mm_libraries   every library made by mm_add_library
 #   mm_unit_tests  every test executable made by mm_add_test with the label "unit" (the default)
+#   mm_fuzzers     every libFuzzer target made by mm_add_fuzzer (the fuzz preset)
 if(NOT TARGET mm_libraries)
   add_custom_target(mm_libraries)
   add_custom_target(mm_unit_tests)
+  add_custom_target(mm_fuzzers)
 endif()
 
 # mm_add_library(NAME SOURCES ... [PUBLIC_LINK ...] [PRIVATE_LINK ...])
@@ -112,4 +114,26 @@ function(mm_forbid_links a)
   foreach(b IN LISTS ARGN)
     mm_forbid_link(${a} ${b})
   endforeach()
+endfunction()
+
+# mm_add_fuzzer(NAME SOURCES ... [LINK ...] CORPUS DIR)
+# A libFuzzer target, made only in the fuzz preset (clang; MM_FUZZ instruments every target it
+# builds with ASan + UBSan and the fuzzer's coverage). DIR holds its seed inputs, in the
+# repository. Each target is listed as "name binary corpus" in <build>/fuzz_targets.txt, which
+# scripts/fuzz.sh (the fuzz stage of .ci/run) runs for a bounded time.
+function(mm_add_fuzzer name)
+  if(NOT MM_FUZZ)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "CORPUS" "SOURCES;LINK" ${ARGN})
+  if(NOT IS_DIRECTORY ${ARG_CORPUS})
+    message(FATAL_ERROR "mm_add_fuzzer(${name}): no seed corpus at ${ARG_CORPUS}")
+  endif()
+  add_executable(${name} ${ARG_SOURCES})
+  target_compile_options(${name} PRIVATE ${MM_WARNINGS})
+  target_link_options(${name} PRIVATE -fsanitize=fuzzer)
+  target_link_libraries(${name} PRIVATE ${ARG_LINK})
+  add_dependencies(mm_fuzzers ${name})
+  file(APPEND ${PROJECT_BINARY_DIR}/fuzz_targets.txt
+       "${name} ${CMAKE_CURRENT_BINARY_DIR}/${name} ${ARG_CORPUS}\n")
 endfunction()

@@ -21,14 +21,24 @@ class DatasetError : public std::runtime_error {
 
 /// One line of a TUM image list.
 struct TumFrame {
-  double timestamp_s = 0.0;       ///< Dataset time, seconds.
-  std::filesystem::path path;     ///< Absolute (resolved against the list's folder).
+  double timestamp_s = 0.0;    ///< Dataset time, seconds.
+  std::filesystem::path path;  ///< Absolute (resolved against the list's folder).
+  int line = 0;                ///< Line in the list, for messages.
 };
 
 /// Reads a TUM image list (rgb.txt, depth.txt or any `timestamp path` file). Comment lines
 /// start with '#'. Relative paths are resolved against the list's folder.
 /// \throws DatasetError naming file and line on a malformed line or an unreadable file.
 std::vector<TumFrame> ReadTumList(const std::filesystem::path& list_file);
+
+/// ReadTumList on text; relative paths resolve against `folder`, messages name `source_name`.
+std::vector<TumFrame> ParseTumList(const std::string& text, const std::filesystem::path& folder,
+                                   const std::string& source_name);
+
+/// Empty when the frames' timestamps never decrease and no two neighbours are more than
+/// `max_gap_s` apart, else a message naming the list, the line and the timestamp.
+[[nodiscard]] std::string CheckTimeOrder(const std::vector<TumFrame>& frames, double max_gap_s,
+                                         const std::string& list_name);
 
 /// A rigid transform world_from_cam (TUM convention) at a time.
 struct TimedPose {
@@ -41,6 +51,8 @@ class Trajectory {
  public:
   /// \throws DatasetError naming file and line.
   static Trajectory Read(const std::filesystem::path& groundtruth_file);
+  /// Read on text; messages name `source_name`.
+  static Trajectory Parse(const std::string& text, const std::string& source_name);
   explicit Trajectory(std::vector<TimedPose> poses);
 
   /// Linear position / SLERP rotation between the bracketing samples. Outside the sampled

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "base/text_file.h"
 #include "calib/calib_io.h"
 #include "entry/mesh_gltf.h"
 #include "entry/mesh_io.h"
@@ -94,15 +95,18 @@ SpoolCommit WriteEntry(Spool& spool, const EncodedEntry& entry, std::time_t when
 
 std::string ReadEntryReport(const std::filesystem::path& entry_dir, EntryReport* report) {
   const std::filesystem::path file = entry_dir / "report.json";
-  std::ifstream in(file);
-  if (!in) return "cannot read " + file.string();
+  std::string error;
+  const std::optional<std::string> text = ReadTextFile(file, kMaxDataFileBytes, &error);
+  if (!text) return error;
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
+    j = nlohmann::json::parse(*text);
   } catch (const nlohmann::json::exception& e) {
     return file.string() + ": " + e.what();
   }
-  if (std::string error = FromJson(j, report); !error.empty()) return file.string() + ": " + error;
+  if (std::string problem = FromJson(j, report); !problem.empty()) {
+    return file.string() + ": " + problem;
+  }
   return {};
 }
 

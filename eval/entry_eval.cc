@@ -3,42 +3,32 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <fstream>
+#include <locale>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 
 #include "base/stats.h"
+#include "base/text_file.h"
 #include "dataset/tum.h"
 #include "entry/entry.h"
 #include "entry/json_text.h"
 
 namespace mm {
-namespace {
 
-namespace fs = std::filesystem;
-using json = nlohmann::json;
-
-struct FedFrame {
-  double write_start_s = 0, write_end_s = 0, dataset_time_s = 0;
-};
-
-// `write_start_s write_end_s dataset_time_s` lines, sorted by time.
-std::vector<FedFrame> ReadFeedLog(const fs::path& file, std::string* error) {
-  std::ifstream in(file);
-  if (!in) {
-    *error = "cannot read the feed log " + file.string();
-    return {};
-  }
+std::vector<FedFrame> ParseFeedLog(const std::string& text, const std::string& source_name,
+                                   std::string* error) {
   std::vector<FedFrame> rows;
+  std::istringstream in(text);
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream s(line);
+    s.imbue(std::locale::classic());
     FedFrame f;
     if (!(s >> f.write_start_s >> f.write_end_s >> f.dataset_time_s) ||
         f.write_end_s < f.write_start_s) {
-      *error = file.string() + ":" + std::to_string(number) +
+      *error = source_name + ":" + std::to_string(number) +
                ": expected 'write_start_s write_end_s dataset_time_s'";
       return {};
     }
@@ -47,6 +37,17 @@ std::vector<FedFrame> ReadFeedLog(const fs::path& file, std::string* error) {
   std::sort(rows.begin(), rows.end(),
             [](const FedFrame& a, const FedFrame& b) { return a.write_start_s < b.write_start_s; });
   return rows;
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+std::vector<FedFrame> ReadFeedLog(const fs::path& file, std::string* error) {
+  const std::optional<std::string> text = ReadTextFile(file, kMaxDataFileBytes, error);
+  if (!text) return {};
+  return ParseFeedLog(*text, file.string(), error);
 }
 
 // The dataset time of the fed frame whose write interval (widened by `slack_s`) holds `mono_s`.

@@ -16,6 +16,17 @@
 
 namespace mm {
 
+/// One frame `monomesh feed` wrote to the device: when the write started and ended
+/// (CLOCK_MONOTONIC, s) and the dataset time of the frame.
+struct FedFrame {
+  double write_start_s = 0, write_end_s = 0, dataset_time_s = 0;
+};
+
+/// The feed log's `write_start_s write_end_s dataset_time_s` lines ('#' comments), sorted by
+/// write start. On a malformed line returns {} and sets `*error` naming source and line.
+std::vector<FedFrame> ParseFeedLog(const std::string& text, const std::string& source_name,
+                                   std::string* error);
+
 struct EntryEvalOptions {
   std::filesystem::path spool;     ///< Folder of entries (each with report.json).
   std::filesystem::path dataset;   ///< TUM-format folder with groundtruth.txt.
@@ -25,20 +36,20 @@ struct EntryEvalOptions {
 };
 
 struct EntryEval {
-  std::string entry;               ///< Folder name.
-  bool reconstructed = false;      ///< The report says the reconstruction succeeded.
-  bool evaluated = false;          ///< Ground truth found for both keyframes.
-  std::string problem;             ///< Why not evaluated (or the reconstruction's failure reason).
+  std::string entry;           ///< Folder name.
+  bool reconstructed = false;  ///< The report says the reconstruction succeeded.
+  bool evaluated = false;      ///< Ground truth found for both keyframes.
+  std::string problem;         ///< Why not evaluated (or the reconstruction's failure reason).
   double time_a_s = 0, time_b_s = 0;  ///< Dataset times of the keyframes.
-  double rot_err_deg = 0;          ///< Angle of R_est^T R_gt.
-  double trans_err_deg = 0;        ///< Angle between the translation directions.
-  double baseline_m = 0;           ///< Ground-truth distance between the two camera centres.
-  double gt_rotation_deg = 0;      ///< Ground-truth rotation angle between the keyframes.
+  double rot_err_deg = 0;             ///< Angle of R_est^T R_gt.
+  double trans_err_deg = 0;           ///< Angle between the translation directions.
+  double baseline_m = 0;              ///< Ground-truth distance between the two camera centres.
+  double gt_rotation_deg = 0;         ///< Ground-truth rotation angle between the keyframes.
   int mesh_vertices = 0;
 };
 
 struct EntryEvalResult {
-  bool ok = false;                 ///< Inputs readable (entries may still fail individually).
+  bool ok = false;  ///< Inputs readable (entries may still fail individually).
   std::string failure_reason;
   std::vector<EntryEval> entries;  ///< Sorted by entry name (= time of creation).
   int evaluated = 0;

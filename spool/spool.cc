@@ -7,8 +7,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <string_view>
@@ -18,6 +18,16 @@ namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
+
+// The folder's items, stopping at the first error: a range-for over directory_iterator calls
+// operator++, which throws filesystem_error; increment(ec) does not.
+std::vector<fs::directory_entry> ListFolder(const fs::path& dir, std::error_code& ec) {
+  std::vector<fs::directory_entry> items;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    items.push_back(*it);
+  }
+  return items;
+}
 
 std::string ErrnoText(int err) { return std::strerror(err); }
 
@@ -67,7 +77,8 @@ bool IsOwnWorkName(std::string_view name) {
   if (name.substr(0, temp.size()) != temp) return false;
   name.remove_prefix(temp.size());
   if (name == Spool::kLatestName) return true;  // A `latest` being replaced.
-  if (name.substr(0, kDeletePrefix.size()) == kDeletePrefix) name.remove_prefix(kDeletePrefix.size());
+  if (name.substr(0, kDeletePrefix.size()) == kDeletePrefix)
+    name.remove_prefix(kDeletePrefix.size());
   return IsEntryName(name);
 }
 
@@ -117,13 +128,19 @@ std::string SpoolOptions::Check() const {
 
 Spool::Spool(SpoolOptions options) : options_(std::move(options)) {}
 
-std::string Spool::Recover(int* removed_leftovers) {
+std::string Spool::Recover(int* removed_leftovers, bool* path_unusable) {
   std::error_code ec;
   fs::create_directories(options_.dir, ec);
-  if (ec) return "spool " + options_.dir.string() + ": cannot create: " + ec.message();
+  if (ec) {
+    // A file where the folder or one of its parents should be: no restart makes it a folder.
+    if (path_unusable != nullptr) {
+      *path_unusable = ec == std::errc::file_exists || ec == std::errc::not_a_directory;
+    }
+    return "spool " + options_.dir.string() + ": cannot create: " + ec.message();
+  }
   int removed = 0;
   uint64_t max_sequence = 0;
-  for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
+  for (const auto& item : ListFolder(options_.dir, ec)) {
     const std::string name = item.path().filename().string();
     if (IsOwnWorkName(name)) {
       // remove_all does not follow a symlink (a leftover .tmp-latest): it removes the link.
@@ -143,7 +160,7 @@ std::string Spool::Recover(int* removed_leftovers) {
 std::vector<fs::path> Spool::Entries() const {
   std::vector<fs::path> entries;
   std::error_code ec;
-  for (const auto& item : fs::directory_iterator(options_.dir, ec)) {
+  for (const auto& item : ListFolder(options_.dir, ec)) {
     if (IsRealDirectory(item) && IsEntryName(item.path().filename().string())) {
       entries.push_back(item.path());
     }
@@ -206,8 +223,8 @@ SpoolCommit Spool::Commit(const std::vector<SpoolFile>& files, std::time_t when)
     for (size_t i = 0; i + static_cast<size_t>(options_.max_entries) < entries.size(); ++i) {
       // Rename out of sight first so a watcher never sees a half-deleted entry.
       const fs::path doomed =
-          options_.dir / (std::string(kTempPrefix) + std::string(kDeletePrefix) +
-                          entries[i].filename().string());
+          options_.dir /
+          (std::string(kTempPrefix) + std::string(kDeletePrefix) + entries[i].filename().string());
       fs::rename(entries[i], doomed, ec);
       if (!ec) fs::remove_all(doomed, ec);
       if (!ec) ++result.removed_by_retention;

@@ -48,8 +48,10 @@ class Spool {
   explicit Spool(SpoolOptions options);
 
   /// Creates the spool folder and removes leftovers of an interrupted write. Returns an empty
-  /// string or a message naming the folder and the error.
-  [[nodiscard]] std::string Recover(int* removed_leftovers = nullptr);
+  /// string or a message naming the folder and the error; `*path_unusable` then says whether
+  /// a file stands where the folder (or a parent) must be, which no retry mends.
+  [[nodiscard]] std::string Recover(int* removed_leftovers = nullptr,
+                                    bool* path_unusable = nullptr);
 
   /// Writes an entry named `<UTC time of when>-<next sequence>` atomically. On failure
   /// (e.g. ENOSPC) the temporary folder is removed and earlier entries are untouched.

@@ -3,12 +3,11 @@
 #include <sys/un.h>
 #include <toml++/toml.h>
 
-#include <fstream>
 #include <set>
-#include <sstream>
 #include <type_traits>
 
 #include "base/checked_number.h"
+#include "base/text_file.h"
 
 namespace mm {
 namespace {
@@ -254,11 +253,10 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
 }
 
 DaemonConfig LoadDaemonConfig(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path.string() + ": cannot open config file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseDaemonConfig(text.str(), path);
+  std::string error;
+  const std::optional<std::string> text = ReadTextFile(path, kMaxConfigFileBytes, &error);
+  if (!text) throw ConfigError(error);
+  return ParseDaemonConfig(*text, path);
 }
 
 }  // namespace mm

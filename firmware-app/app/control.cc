@@ -19,7 +19,7 @@ sockaddr_un Address(const std::filesystem::path& path) {
   const std::string s = path.string();
   if (s.size() >= sizeof(addr.sun_path)) {
     throw ControlPathError("control socket " + s + ": path longer than " +
-                       std::to_string(sizeof(addr.sun_path) - 1) + " bytes");
+                           std::to_string(sizeof(addr.sun_path) - 1) + " bytes");
   }
   std::memcpy(addr.sun_path, s.c_str(), s.size() + 1);
   return addr;
@@ -114,7 +114,8 @@ std::string SendControlCommand(const std::filesystem::path& path, const std::str
     throw ControlError(Errno(path, "connect (is monomeshd running?)"));
   }
   const std::string line = command + "\n";
-  if (::send(fd.get(), line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size())) {
+  if (::send(fd.get(), line.data(), line.size(), MSG_NOSIGNAL) !=
+      static_cast<ssize_t>(line.size())) {
     throw ControlError(Errno(path, "send"));
   }
   std::string reply;
@@ -131,6 +132,12 @@ std::string SendControlCommand(const std::filesystem::path& path, const std::str
     if (n < 0) throw ControlError(Errno(path, "recv"));
     if (n == 0) break;
     reply.append(buf, static_cast<size_t>(n));
+    // A status line is a few KiB: whatever streams more without an end of line is no daemon.
+    constexpr size_t kMaxReplyBytes = size_t{1} << 20;
+    if (reply.size() > kMaxReplyBytes && reply.find('\n') == std::string::npos) {
+      throw ControlError("control socket " + path.string() + ": reply longer than " +
+                         std::to_string(kMaxReplyBytes) + " bytes without an end of line");
+    }
   }
   if (const auto nl = reply.find('\n'); nl != std::string::npos) reply.resize(nl);
   return reply;

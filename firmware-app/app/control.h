@@ -2,9 +2,11 @@
 // The daemon's control socket: a UNIX stream socket, one request line per connection
 // ("trigger", "status", "ping"), one JSON reply line, then the daemon closes the connection.
 // The line may arrive in pieces; it ends at '\n' or when the client shuts down writing. The
-// daemon answers an error and closes a request longer than 256 bytes, one without an end of
-// line within 5 s, and connections beyond 32 at once ("busy"); an idle connection is closed
-// after 5 s. At the fd limit it stops accepting for 200 ms at a time instead of spinning.
+// daemon answers an error and closes a request longer than 256 bytes and one without an end of
+// line within 5 s; an idle connection is closed after 5 s. It holds at most 32 connections: a
+// new one beyond that is served, and the connection idle longest is answered "busy" and closed
+// (a flood of idle connections cannot lock clients out). At the fd limit it stops accepting for
+// 200 ms at a time instead of spinning.
 
 #include <chrono>
 #include <filesystem>

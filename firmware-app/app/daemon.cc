@@ -10,6 +10,7 @@
 #include <sys/timerfd.h>
 #include <systemd/sd-daemon.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstring>
 #include <ctime>
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "app/control.h"
+#include "app/control_protocol.h"
 #include "app/gate_thread.h"
 #include "app/pair_job.h"
 #include "base/unique_fd.h"
@@ -57,9 +59,9 @@ void DrainEventFd(int fd) {
 
 struct Job {
   uint64_t capture_id = 0;
-  FramePtr a;                // Raw frames, for the report.
+  FramePtr a;  // Raw frames, for the report.
   FramePtr b;
-  cv::Mat undistorted_a;     // What the reconstruction sees.
+  cv::Mat undistorted_a;  // What the reconstruction sees.
   cv::Mat undistorted_b;
   std::vector<TrackCorrespondence> tracks;  // The gate's tracks from A to B.
   std::vector<KeyframeBTry> tries;          // This capture's B tries so far (the last is this B).
@@ -94,14 +96,7 @@ class Worker {
       : config_(config), camera_(undistorted_camera), spool_(spool), done_fd_(done_fd) {
     thread_ = std::thread([this] { RunGuarded(); });
   }
-  ~Worker() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    thread_.join();
-  }
+  ~Worker() { Finish(); }
   Worker(const Worker&) = delete;
   Worker& operator=(const Worker&) = delete;
 
@@ -111,6 +106,17 @@ class Worker {
     std::lock_guard lock(mutex_);
     prepare_ = PrepareJob{capture_id, std::move(undistorted_a)};
     cv_.notify_all();
+  }
+
+  /// Stops the thread after the job queued or running (a capture accepted is a capture
+  /// finished: its outcome stays for TakeOutcome); a pending Prepare is dropped.
+  void Finish() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    if (thread_.joinable()) thread_.join();
   }
 
   /// False when a job is already queued or running.
@@ -162,8 +168,8 @@ class Worker {
       {
         std::unique_lock lock(mutex_);
         cv_.wait(lock, [&] { return stop_ || job_.has_value() || prepare_.has_value(); });
-        if (stop_) return;
-        if (prepare_.has_value()) {
+        if (stop_ && !job_.has_value()) return;
+        if (prepare_.has_value() && !stop_) {
           PrepareJob prepare = std::move(*prepare_);
           prepare_.reset();
           lock.unlock();
@@ -246,31 +252,30 @@ class Worker {
   std::thread thread_;
   std::mutex mutex_;
   std::condition_variable cv_;
-  bool stop_ = false;            // Guarded by mutex_.
-  bool busy_ = false;            // Guarded by mutex_.
+  bool stop_ = false;  // Guarded by mutex_.
+  bool busy_ = false;  // Guarded by mutex_.
   struct PrepareJob {
     uint64_t capture_id = 0;
     cv::Mat image;
   };
-  std::optional<Job> job_;       // Guarded by mutex_.
-  std::optional<PrepareJob> prepare_;  // Guarded by mutex_.
-  Features features_;            // Keyframe A's, guarded by mutex_.
-  uint64_t features_capture_ = 0;  // Whose features_ are; guarded by mutex_.
-  std::deque<JobOutcome> outcomes_;  // Guarded by mutex_.
+  std::optional<Job> job_;                  // Guarded by mutex_.
+  std::optional<PrepareJob> prepare_;       // Guarded by mutex_.
+  Features features_;                       // Keyframe A's, guarded by mutex_.
+  uint64_t features_capture_ = 0;           // Whose features_ are; guarded by mutex_.
+  std::deque<JobOutcome> outcomes_;         // Guarded by mutex_.
   std::optional<std::string> fatal_error_;  // Guarded by mutex_.
 };
 
 // The control protocol's limits (control.h): one request line per connection.
-constexpr size_t kMaxRequestBytes = 256;   // The longest command is 7 bytes.
 constexpr auto kClientIdleTimeout = std::chrono::seconds(5);  // A held connection is closed.
-constexpr size_t kMaxClients = 32;         // More at once are answered "busy" and closed.
+constexpr size_t kMaxClients = 32;  // At the cap, the one idle longest makes room.
 constexpr auto kAcceptBackoff = std::chrono::milliseconds(200);  // After EMFILE / ENFILE.
 
 // A control-socket client: the request line is collected across reads (a command may arrive in
 // several pieces).
 struct Client {
   UniqueFd fd;
-  std::string request;
+  ControlRequestReader request;
   std::chrono::steady_clock::time_point last_read;
 };
 
@@ -278,9 +283,12 @@ enum class State { kIdle, kTracking, kReconstructing };
 
 const char* Name(State s) {
   switch (s) {
-    case State::kIdle: return "idle";
-    case State::kTracking: return "tracking";
-    case State::kReconstructing: return "reconstructing";
+    case State::kIdle:
+      return "idle";
+    case State::kTracking:
+      return "tracking";
+    case State::kReconstructing:
+      return "reconstructing";
   }
   return "?";
 }
@@ -309,7 +317,8 @@ class Daemon {
   void OnAccept();
   void PauseAccept();
   void OnClient(int fd);
-  json Answer(std::string request);
+  json Answer(const std::string& request);
+  void FinishOnStop();
   void ReplyAndClose(int fd, const json& reply);
   void CloseClient(int fd);
   json Status();
@@ -352,6 +361,7 @@ class Daemon {
   uint64_t watchdog_usec_ = 0;
   std::chrono::steady_clock::time_point last_watchdog_;
   bool stop_ = false;
+  bool stopping_ = false;  // Set once the loop has ended: results end captures, start nothing.
 };
 
 void Daemon::AddFd(int fd) {
@@ -379,9 +389,10 @@ void Daemon::SetState(State s) {
 
 int Daemon::Run() {
   int leftovers = 0;
-  if (std::string error = spool_.Recover(&leftovers); !error.empty()) {
+  bool spool_path_unusable = false;
+  if (std::string error = spool_.Recover(&leftovers, &spool_path_unusable); !error.empty()) {
     spdlog::critical("{}", error);
-    return kExitUnavailable;
+    return spool_path_unusable ? kExitConfig : kExitUnavailable;
   }
   if (leftovers > 0) {
     spdlog::warn("spool {}: removed {} incomplete entries left by an earlier crash",
@@ -444,7 +455,8 @@ int Daemon::Run() {
     return kExitUnavailable;
   }
   struct stat bound {};
-  if (::lstat(config_.control_socket.c_str(), &bound) == 0) socket_id_ = {bound.st_dev, bound.st_ino};
+  if (::lstat(config_.control_socket.c_str(), &bound) == 0)
+    socket_id_ = {bound.st_dev, bound.st_ino};
   AddFd(listen_fd_.get());
   if (config_.button_enabled) {
     triggers_.push_back(std::make_unique<GpioButton>(config_.button));
@@ -457,8 +469,8 @@ int Daemon::Run() {
     AddFd(trigger->fd());
     spdlog::info("trigger: {}", trigger->Describe());
   }
-  worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_,
-                                     done_event_.get());
+  worker_ =
+      std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_, done_event_.get());
   gate_ = std::make_unique<GateThread>(undistorter_, &session_, gate_event_.get());
 
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
@@ -522,8 +534,7 @@ int Daemon::Run() {
     }
   }
   sd_notify(0, "STOPPING=1");
-  gate_.reset();
-  worker_.reset();  // Finishes the job in progress: an entry is committed whole or not at all.
+  FinishOnStop();
   capture_->Stop();
   // Only the socket this daemon bound (not a file put there since).
   struct stat now {};
@@ -533,6 +544,21 @@ int Daemon::Run() {
   }
   spdlog::info("stopped");
   return 0;
+}
+
+void Daemon::FinishOnStop() {
+  stopping_ = true;
+  if (state_ == State::kReconstructing) {
+    // The unit's TimeoutStopSec leaves the pair (seconds on a board) time to finish.
+    spdlog::info("stopping: capture {} is being reconstructed; its entry is finished first",
+                 captures_);
+    worker_->Finish();  // An entry is committed whole or not at all.
+    OnJobDone();
+  } else if (state_ == State::kTracking) {
+    spdlog::warn("capture {} abandoned: stopped while tracking, before keyframe B", captures_);
+  }
+  gate_.reset();  // After OnJobDone, which settles the gate first.
+  worker_.reset();
 }
 
 void Daemon::OnTrigger(const char* origin, json* reply) {
@@ -554,7 +580,8 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   try {
     undistorted = undistorter_.Apply(latest->image);
   } catch (const std::exception& e) {
-    *reply = {{"ok", false}, {"error", std::string("frame does not fit the calibration: ") + e.what()}};
+    *reply = {{"ok", false},
+              {"error", std::string("frame does not fit the calibration: ") + e.what()}};
     spdlog::error("trigger ({}) refused: {}", origin, e.what());
     return;
   }
@@ -645,7 +672,7 @@ void Daemon::ApplyGate(const TrackedFrame& tracked) {
                  captures_, frame->sequence, frame->source_id, d.median_parallax_deg,
                  d.essential_inliers, try_note);
   }
-  Job job{captures_,          keyframe_a_,       frame,           undistorted_a_,
+  Job job{captures_,           keyframe_a_,       frame,           undistorted_a_,
           tracked.undistorted, session_.Tracks(), session_.tries()};
   if (!worker_->Submit(std::move(job))) {
     EndCapture("worker busy; capture dropped");
@@ -660,6 +687,11 @@ void Daemon::OnJobDone() {
     if (o->capture_id != captures_ || !session_.open()) continue;  // A capture already ended.
     if (o->refused) {
       const CaptureSession::Step step = session_.OnResult(false, o->failure, o->refusal);
+      if (step == CaptureSession::Step::kWait && stopping_) {
+        spdlog::warn("capture {} abandoned: keyframe B refused ({}) while stopping", o->capture_id,
+                     o->refusal);
+        continue;
+      }
       if (step == CaptureSession::Step::kWait) {
         spdlog::info("capture {}: keyframe B refused ({}); tracking on for a later B",
                      o->capture_id, o->refusal);
@@ -693,8 +725,7 @@ void Daemon::OnTimer() {
       session_.OnTime(NowSeconds()) == CaptureSession::Step::kFailed) {
     EndCapture(session_.failure_reason());
   }
-  if (watchdog_usec_ > 0 &&
-      now - last_watchdog_ > std::chrono::microseconds(watchdog_usec_ / 2)) {
+  if (watchdog_usec_ > 0 && now - last_watchdog_ > std::chrono::microseconds(watchdog_usec_ / 2)) {
     sd_notify(0, "WATCHDOG=1");
     last_watchdog_ = now;
   }
@@ -707,7 +738,7 @@ void Daemon::OnTimer() {
     if (now - client.last_read > kClientIdleTimeout) idle.push_back(fd);
   }
   for (int fd : idle) {
-    if (clients_.at(fd).request.empty()) {
+    if (clients_.at(fd).request.request().empty()) {
       CloseClient(fd);
     } else {
       ReplyAndClose(fd, {{"ok", false},
@@ -730,15 +761,26 @@ void Daemon::OnAccept() {
     UniqueFd fd(client);
     accept_failing_ = false;
     if (clients_.size() >= kMaxClients) {
-      const std::string line =
-          JsonText({{"ok", false},
-                    {"error", "busy: " + std::to_string(kMaxClients) + " clients connected"}}) +
-          "\n";
-      [[maybe_unused]] const ssize_t w = ::send(client, line.data(), line.size(), MSG_NOSIGNAL);
-      continue;  // Closed by fd.
+      // At the cap, first read what the held clients have sent: a request waiting is served
+      // and a client that hung up (a connect storm) is closed, freeing its slot.
+      std::vector<int> held;
+      for (const auto& [held_fd, c] : clients_) held.push_back(held_fd);
+      for (int held_fd : held) OnClient(held_fd);
+    }
+    if (clients_.size() >= kMaxClients) {
+      // Still full: the client idle longest makes room. A flood of idle connections cycles
+      // through the slots while a client that asks is served.
+      const auto oldest = std::min_element(
+          clients_.begin(), clients_.end(),
+          [](const auto& a, const auto& b) { return a.second.last_read < b.second.last_read; });
+      ReplyAndClose(oldest->first,
+                    {{"ok", false},
+                     {"error", "busy: " + std::to_string(kMaxClients) +
+                                   " clients connected; this one was idle longest"}});
     }
     AddFd(client);
-    clients_.emplace(client, Client{std::move(fd), {}, std::chrono::steady_clock::now()});
+    clients_.emplace(
+        client, Client{std::move(fd), ControlRequestReader(), std::chrono::steady_clock::now()});
   }
 }
 
@@ -770,47 +812,51 @@ void Daemon::OnClient(int fd) {
   char buf[512];
   for (;;) {
     const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    ControlRequestReader::Status status;
     if (n > 0) {
       client.last_read = std::chrono::steady_clock::now();
-      client.request.append(buf, static_cast<size_t>(n));
-      if (const size_t end = client.request.find('\n'); end != std::string::npos) {
-        client.request.resize(end);
-        ReplyAndClose(fd, Answer(std::move(client.request)));
-        return;
-      }
-      if (client.request.size() > kMaxRequestBytes) {
-        ReplyAndClose(fd, {{"ok", false},
-                           {"error", "request longer than " + std::to_string(kMaxRequestBytes) +
-                                         " bytes without an end of line"}});
-        return;
-      }
-      continue;
+      status = client.request.Append(std::string_view(buf, static_cast<size_t>(n)));
+    } else if (n == 0) {
+      status = client.request.Finish();
+    } else {
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK) CloseClient(fd);
+      return;  // EAGAIN: the rest of the line comes later.
     }
-    if (n == 0) {  // The client stopped writing: what came is the whole request.
-      if (client.request.empty()) {
+    switch (status) {
+      case ControlRequestReader::Status::kNeedMore:
+        continue;
+      case ControlRequestReader::Status::kComplete:
+        ReplyAndClose(fd, Answer(client.request.TakeRequest()));
+        return;
+      case ControlRequestReader::Status::kTooLong:
+        ReplyAndClose(fd,
+                      {{"ok", false},
+                       {"error", "request longer than " + std::to_string(kMaxControlRequestBytes) +
+                                     " bytes without an end of line"}});
+        return;
+      case ControlRequestReader::Status::kEmpty:
         CloseClient(fd);
-      } else {
-        ReplyAndClose(fd, Answer(std::move(client.request)));
-      }
-      return;
+        return;
     }
-    if (errno == EINTR) continue;
-    if (errno != EAGAIN && errno != EWOULDBLOCK) CloseClient(fd);
-    return;  // EAGAIN: the rest of the line comes later.
   }
 }
 
-json Daemon::Answer(std::string request) {
-  if (!request.empty() && request.back() == '\r') request.pop_back();
-  if (request == "trigger") {
-    json reply;
-    OnTrigger("control socket", &reply);
-    return reply;
+json Daemon::Answer(const std::string& request) {
+  switch (ParseControlCommand(request)) {
+    case ControlCommand::kTrigger: {
+      json reply;
+      OnTrigger("control socket", &reply);
+      return reply;
+    }
+    case ControlCommand::kStatus:
+      return Status();
+    case ControlCommand::kPing:
+      return {{"ok", true}};
+    case ControlCommand::kUnknown:
+      break;
   }
-  if (request == "status") return Status();
-  if (request == "ping") return {{"ok", true}};
-  return {{"ok", false},
-          {"error", "unknown command '" + request + "' (known: trigger, status, ping)"}};
+  return {{"ok", false}, {"error", UnknownControlCommandError(request)}};
 }
 
 json Daemon::Status() {
