@@ -134,6 +134,12 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "recon.refine_points",
                                               "mesh.mode",
                                               "mesh.vertex_budget",
+                                              "scale.source",
+                                              "scale.camera_height_m",
+                                              "scale.camera_pitch_deg",
+                                              "scale.min_baseline_m",
+                                              "scale.max_odom_age_s",
+                                              "scale.odometry_clock",
                                               "spool.dir",
                                               "spool.max_entries",
                                               "log.level"};
@@ -236,6 +242,29 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   if (const std::string problem = c.gate.Check(); !problem.empty()) {
     const std::string key = problem.substr(0, problem.find(':'));
     r.Require(false, keyframes, "keyframes", key.c_str(), problem.substr(problem.find(':') + 2));
+  }
+
+  const auto* scale = r.Table("scale");
+  std::string source = ScaleSourceName(c.scale.source);
+  r.Get(scale, "scale", "source", &source);
+  const std::optional<ScaleSource> scale_source = ParseScaleSource(source);
+  r.Require(scale_source.has_value(), scale, "scale", "source",
+            "'" + source + "' is not a scale source (none, odometry, floor or auto)");
+  c.scale.source = scale_source.value_or(c.scale.source);
+  r.GetNumber(scale, "scale", "camera_height_m", {0.0, 100.0}, &c.scale.camera_height_m);
+  r.GetNumber(scale, "scale", "camera_pitch_deg", {-90.0, 90.0}, &c.scale.camera_pitch_deg);
+  r.GetNumber(scale, "scale", "min_baseline_m", {0.0, 100.0}, &c.scale.min_baseline_m);
+  r.GetNumber(scale, "scale", "max_odom_age_s", {0.0, 60.0}, &c.max_odom_age_s);
+  std::string clock =
+      c.odometry_clock == DaemonConfig::OdometryClock::kCamera ? "camera" : "realtime";
+  r.Get(scale, "scale", "odometry_clock", &clock);
+  r.Require(clock == "realtime" || clock == "camera", scale, "scale", "odometry_clock",
+            "'" + clock + "' is not a clock (realtime or camera)");
+  c.odometry_clock = clock == "camera" ? DaemonConfig::OdometryClock::kCamera
+                                       : DaemonConfig::OdometryClock::kRealtime;
+  if (const std::string problem = c.scale.Check(); !problem.empty()) {
+    const std::string key = problem.substr(0, problem.find(':'));
+    r.Require(false, scale, "scale", key.c_str(), problem.substr(problem.find(':') + 2));
   }
 
   const auto* spool = r.Table("spool");

@@ -11,6 +11,7 @@
 #include "capture/trigger.h"
 #include "recon/keyframe_gate.h"
 #include "recon/pipeline.h"
+#include "scale/metric_scale.h"
 #include "session/capture_session.h"
 
 namespace mm {
@@ -21,7 +22,7 @@ class ConfigError : public std::runtime_error {
 };
 
 struct DaemonConfig {
-  std::filesystem::path config_dir;   ///< Relative paths below are resolved against this.
+  std::filesystem::path config_dir;  ///< Relative paths below are resolved against this.
 
   std::string camera_uri;             ///< [camera] uri
   std::filesystem::path calibration;  ///< [camera] calibration
@@ -37,18 +38,30 @@ struct DaemonConfig {
   GpioButtonOptions button;
   bool button_enabled = false;
 
-  KeyframeGateOptions gate;           ///< [keyframes] parallax_deg, min_tracks, min_inliers
-  double keyframe_timeout_s = 30.0;   ///< [keyframes] timeout_s
+  KeyframeGateOptions gate;          ///< [keyframes] parallax_deg, min_tracks, min_inliers
+  double keyframe_timeout_s = 30.0;  ///< [keyframes] timeout_s
   int max_b_tries = CaptureSessionOptions{}.max_tries;  ///< [keyframes] max_tries
 
-  PairOptions recon;                  ///< [recon] ...
+  PairOptions recon;  ///< [recon] ...
+
+  /// [scale] source, camera_height_m, camera_pitch_deg, min_baseline_m: metres for the
+  /// entries (scale/metric_scale.h); source none leaves them up to scale.
+  ScaleOptions scale;
+  /// [scale] max_odom_age_s: odometry further than this from a keyframe's time is stale; the
+  /// worker also waits up to this long for the odometry stream to reach keyframe B's time.
+  double max_odom_age_s = 0.5;
+  /// [scale] odometry_clock: the clock of `odom` timestamps. Realtime: Unix time (a ROS
+  /// bridge's stamps); camera: the frames' own timestamps (the replay camera's dataset time,
+  /// a V4L2 driver's CLOCK_MONOTONIC).
+  enum class OdometryClock { kRealtime, kCamera };
+  OdometryClock odometry_clock = OdometryClock::kRealtime;
 
   /// [spool] dir. The default is in the unit's StateDirectory (/var/lib/monomesh), the one
   /// place besides /run/monomesh the unit lets the daemon write.
   std::filesystem::path spool_dir = "/var/lib/monomesh/spool";
-  int spool_max_entries = 200;        ///< [spool] max_entries (0 = keep all)
+  int spool_max_entries = 200;  ///< [spool] max_entries (0 = keep all)
 
-  std::string log_level = "info";     ///< [log] level: trace|debug|info|warn|error
+  std::string log_level = "info";  ///< [log] level: trace|debug|info|warn|error
 };
 
 /// Every key the parser knows, as "table.key", in the order of the example config.

@@ -5,35 +5,69 @@
 namespace mm {
 
 ControlRequestReader::Status ControlRequestReader::Append(std::string_view bytes) {
-  if (status_ != Status::kNeedMore) return status_;
-  const size_t end = bytes.find('\n');
-  // Never hold more than max_bytes_ + 1 bytes, whatever one read brings.
-  const size_t wanted = end == std::string_view::npos ? bytes.size() : end;
-  const size_t room = max_bytes_ + 1 - request_.size();
-  request_.append(bytes.substr(0, std::min(wanted, room)));
-  if (request_.size() > max_bytes_) {
-    status_ = Status::kTooLong;
-  } else if (end != std::string_view::npos) {
-    status_ = Status::kComplete;
-  }
-  return status_;
+  if (status_ == Status::kTooLong) return status_;
+  pending_.append(bytes);
+  return status_ == Status::kComplete ? status_ : Scan();
 }
 
 ControlRequestReader::Status ControlRequestReader::Finish() {
-  if (status_ == Status::kNeedMore) status_ = request_.empty() ? Status::kEmpty : Status::kComplete;
-  return status_;
+  finished_ = true;
+  return status_ == Status::kNeedMore ? Scan() : status_;
 }
 
-ControlCommand ParseControlCommand(std::string_view line) {
+ControlRequestReader::Status ControlRequestReader::Next() {
+  if (status_ != Status::kComplete) return status_;
+  request_.clear();
+  return Scan();
+}
+
+ControlRequestReader::Status ControlRequestReader::Scan() {
+  const size_t end = pending_.find('\n');
+  if (end == std::string::npos) {
+    if (pending_.size() > max_bytes_) {
+      pending_.clear();
+      return status_ = Status::kTooLong;
+    }
+    if (!finished_) return status_ = Status::kNeedMore;
+    if (pending_.empty()) return status_ = Status::kEmpty;
+    request_ = std::move(pending_);
+    pending_.clear();
+    return status_ = Status::kComplete;
+  }
+  if (end > max_bytes_) {
+    pending_.clear();
+    return status_ = Status::kTooLong;
+  }
+  request_.assign(pending_, 0, end);
+  pending_.erase(0, end + 1);
+  return status_ = Status::kComplete;
+}
+
+namespace {
+
+std::string_view WithoutCarriageReturn(std::string_view line) {
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  return line;
+}
+
+}  // namespace
+
+ControlCommand ParseControlCommand(std::string_view line) {
+  line = WithoutCarriageReturn(line);
   if (line == "trigger") return ControlCommand::kTrigger;
   if (line == "status") return ControlCommand::kStatus;
   if (line == "ping") return ControlCommand::kPing;
+  if (line.starts_with("odom ")) return ControlCommand::kOdom;
   return ControlCommand::kUnknown;
 }
 
+std::string_view OdomArguments(std::string_view line) {
+  line = WithoutCarriageReturn(line);
+  return line.starts_with("odom ") ? line.substr(5) : std::string_view();
+}
+
 std::string UnknownControlCommandError(std::string_view request) {
-  return "unknown command '" + std::string(request) + "' (known: trigger, status, ping)";
+  return "unknown command '" + std::string(request) + "' (known: trigger, status, ping, odom)";
 }
 
 }  // namespace mm

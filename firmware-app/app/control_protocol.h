@@ -1,7 +1,9 @@
 #pragma once
-// The control protocol without the socket (control.h): one request line per connection, which
-// may arrive in pieces and ends at '\n' or when the client shuts down writing; then one command.
-// Pure, so the framing and the command parser are unit-tested and fuzzed apart from the daemon.
+// The control protocol without the socket (control.h): request lines, which may arrive in
+// pieces and end at '\n' (or where the client shuts down writing), each answered by one JSON
+// line. A connection carries one command, except that `odom` lines (a robot's odometry bridge)
+// may follow each other on one connection. Pure, so the framing and the command parser are
+// unit-tested and fuzzed apart from the daemon.
 
 #include <cstddef>
 #include <string>
@@ -9,41 +11,54 @@
 
 namespace mm {
 
-/// The longest request line the daemon reads (the longest command is 7 bytes).
+/// The longest request line the daemon reads (the longest, an `odom` line with a quaternion
+/// in full precision, is about 200 bytes).
 inline constexpr size_t kMaxControlRequestBytes = 256;
 
-/// Collects one request line from a client's reads.
+/// Collects request lines from a client's reads.
 class ControlRequestReader {
  public:
   enum class Status {
-    kNeedMore,  ///< No end of line yet: read again.
-    kComplete,  ///< request() is the line, without its '\n'.
-    kTooLong,   ///< More than max_bytes without an end of line: answer an error and close.
-    kEmpty,     ///< The client shut down writing without sending anything: close silently.
+    kNeedMore,  ///< No complete line yet: read again.
+    kComplete,  ///< request() is a line, without its '\n'.
+    kTooLong,   ///< A line longer than max_bytes: answer an error and close.
+    kEmpty,     ///< The client shut down writing with nothing pending: close silently.
   };
 
   explicit ControlRequestReader(size_t max_bytes = kMaxControlRequestBytes)
       : max_bytes_(max_bytes) {}
 
-  /// Adds the bytes of one read. Once the status is not kNeedMore it stays as it is.
+  /// Adds the bytes of one read. While the status is kComplete (a line not yet taken by Next)
+  /// or kTooLong, bytes are kept (kComplete) or ignored (kTooLong).
   Status Append(std::string_view bytes);
-  /// The client shut down writing (recv returned 0): what came is the whole request.
+  /// The client shut down writing (recv returned 0): a pending partial line is complete.
   Status Finish();
+  /// Drops the current line and looks at what came after it.
+  Status Next();
 
-  Status status() const { return status_; }
-  const std::string& request() const { return request_; }
-  std::string TakeRequest() { return std::move(request_); }
+  [[nodiscard]] Status status() const { return status_; }
+  [[nodiscard]] const std::string& request() const { return request_; }
+  /// Bytes held beyond the current line (at most one read's worth plus max_bytes).
+  [[nodiscard]] size_t buffered() const { return pending_.size(); }
 
  private:
+  Status Scan();
+
   size_t max_bytes_;
+  std::string pending_;  // Bytes after the current line.
   std::string request_;
+  bool finished_ = false;
   Status status_ = Status::kNeedMore;
 };
 
-enum class ControlCommand { kTrigger, kStatus, kPing, kUnknown };
+enum class ControlCommand { kTrigger, kStatus, kPing, kOdom, kUnknown };
 
-/// The command a request line names; a trailing '\r' (a telnet line) is ignored.
+/// The command a request line names (its first word, for `odom` the rest are its arguments);
+/// a trailing '\r' (a telnet line) is ignored.
 ControlCommand ParseControlCommand(std::string_view line);
+
+/// The arguments of an `odom` line ("odom T X Y Z ..." -> "T X Y Z ...").
+std::string_view OdomArguments(std::string_view line);
 
 /// The error that answers an unknown command; it quotes the request, which need not be UTF-8
 /// (the reply's JSON text replaces what is not, entry/json_text.h).

@@ -34,6 +34,7 @@
 #include "capture/source_uri.h"
 #include "capture/trigger.h"
 #include "entry/json_text.h"
+#include "scale/odometry.h"
 #include "session/capture_session.h"
 #include "spool/spool.h"
 
@@ -88,12 +89,59 @@ KeyframeInfo InfoOf(const Frame& f) {
           .source = f.source_id};
 }
 
+// The robot's odometry (`odom` lines on the control socket): the event loop adds samples, the
+// worker looks up the keyframes' positions once the stream has reached keyframe B's time.
+class SharedOdometry {
+ public:
+  void Add(const OdometrySample& sample) {
+    {
+      std::lock_guard lock(mutex_);
+      track_.Add(sample);
+    }
+    arrived_.notify_all();
+  }
+
+  /// The positions at `time_a_s` and `time_b_s`, after waiting up to `wait` for a sample at or
+  /// after `time_b_s` (a bridge's latency); what is missing comes with its reason.
+  PairScaleInputs Lookup(double time_a_s, double time_b_s, const OdometryLookupOptions& options,
+                         std::chrono::duration<double> wait) {
+    std::unique_lock lock(mutex_);
+    arrived_.wait_for(lock, wait,
+                      [&] { return !track_.empty() && track_.newest().time_s >= time_b_s; });
+    PairScaleInputs out;
+    std::string why_a, why_b;
+    out.odometry_a_m = track_.PositionAt(time_a_s, options, &why_a);
+    out.odometry_b_m = track_.PositionAt(time_b_s, options, &why_b);
+    if (!out.odometry_a_m) out.odometry_why_not = "keyframe A: " + why_a;
+    if (!out.odometry_b_m) {
+      out.odometry_why_not +=
+          std::string(out.odometry_why_not.empty() ? "" : "; ") + "keyframe B: " + why_b;
+    }
+    return out;
+  }
+
+  nlohmann::json Describe() {
+    std::lock_guard lock(mutex_);
+    return {{"samples", track_.size()},
+            {"newest_s", track_.empty() ? 0.0 : track_.newest().time_s}};
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable arrived_;
+  OdometryTrack track_;  // Guarded by mutex_.
+};
+
 // The reconstruction worker: a thread with a queue of at most one job.
 class Worker {
  public:
   Worker(const DaemonConfig& config, const BouguetCamera& undistorted_camera, Spool* spool,
-         int done_fd)
-      : config_(config), camera_(undistorted_camera), spool_(spool), done_fd_(done_fd) {
+         SharedOdometry* odometry, int done_fd)
+      : config_(config),
+        camera_(undistorted_camera),
+        spool_(spool),
+        odometry_(odometry),
+        done_fd_(done_fd) {
     thread_ = std::thread([this] { RunGuarded(); });
   }
   ~Worker() { Finish(); }
@@ -216,9 +264,18 @@ class Worker {
           have_features = true;
         }
       }
+      const KeyframeInfo a = InfoOf(*job.a), b = InfoOf(*job.b);
+      PairScaleInputs scale;
+      if (config_.scale.source == ScaleSource::kOdometry ||
+          config_.scale.source == ScaleSource::kAuto) {
+        scale = odometry_->Lookup(OdometryTime(a), OdometryTime(b),
+                                  {.max_age_s = config_.max_odom_age_s},
+                                  std::chrono::duration<double>(config_.max_odom_age_s));
+      }
+      scale.options = config_.scale;
       PairJobResult result =
-          RunPairJob(job.undistorted_a, job.undistorted_b, InfoOf(*job.a), InfoOf(*job.b), camera_,
-                     config_.recon, have_features ? &features_a : nullptr, job.tracks, job.tries);
+          RunPairJob(job.undistorted_a, job.undistorted_b, a, b, camera_, config_.recon,
+                     have_features ? &features_a : nullptr, job.tracks, job.tries, scale);
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
         outcome.refused = true;
@@ -245,9 +302,17 @@ class Worker {
     return outcome;
   }
 
+  // A keyframe's time on the clock of the `odom` timestamps ([scale] odometry_clock).
+  double OdometryTime(const KeyframeInfo& k) const {
+    return config_.odometry_clock == DaemonConfig::OdometryClock::kCamera
+               ? k.source_time_s
+               : static_cast<double>(k.capture_realtime_ns) * 1e-9;
+  }
+
   const DaemonConfig& config_;
   BouguetCamera camera_;  // Of the undistorted frames.
   Spool* spool_;
+  SharedOdometry* odometry_;
   int done_fd_;
   std::thread thread_;
   std::mutex mutex_;
@@ -318,6 +383,7 @@ class Daemon {
   void PauseAccept();
   void OnClient(int fd);
   json Answer(const std::string& request);
+  json OnOdom(const std::string& line);
   void FinishOnStop();
   void ReplyAndClose(int fd, const json& reply);
   void CloseClient(int fd);
@@ -347,6 +413,7 @@ class Daemon {
   bool accept_failing_ = false;  // Logged once until an accept succeeds again.
   std::unique_ptr<CaptureThread> capture_;
   std::vector<std::unique_ptr<Trigger>> triggers_;  // SIGUSR1, the GPIO button when configured.
+  SharedOdometry odometry_;                         // Before worker_, which uses it until it ends.
   std::unique_ptr<Worker> worker_;
   std::unique_ptr<GateThread> gate_;  // Before session_ goes: declared after it.
 
@@ -469,8 +536,8 @@ int Daemon::Run() {
     AddFd(trigger->fd());
     spdlog::info("trigger: {}", trigger->Describe());
   }
-  worker_ =
-      std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_, done_event_.get());
+  worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_, &odometry_,
+                                     done_event_.get());
   gate_ = std::make_unique<GateThread>(undistorter_, &session_, gate_event_.get());
 
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
@@ -738,7 +805,7 @@ void Daemon::OnTimer() {
     if (now - client.last_read > kClientIdleTimeout) idle.push_back(fd);
   }
   for (int fd : idle) {
-    if (clients_.at(fd).request.request().empty()) {
+    if (clients_.at(fd).request.buffered() == 0) {
       CloseClient(fd);
     } else {
       ReplyAndClose(fd, {{"ok", false},
@@ -823,11 +890,25 @@ void Daemon::OnClient(int fd) {
       if (errno != EAGAIN && errno != EWOULDBLOCK) CloseClient(fd);
       return;  // EAGAIN: the rest of the line comes later.
     }
+    // An `odom` line is answered and the connection stays for the next (a robot's bridge
+    // writes them continuously); any other command is answered and the connection closed.
+    std::string odom_replies;
+    while (status == ControlRequestReader::Status::kComplete &&
+           ParseControlCommand(client.request.request()) == ControlCommand::kOdom) {
+      odom_replies += JsonText(OnOdom(client.request.request())) + "\n";
+      status = client.request.Next();
+    }
+    if (!odom_replies.empty()) {
+      // One send for the lines of one read. A bridge that never reads its answers loses them
+      // once its socket buffer is full (EAGAIN), not its connection.
+      [[maybe_unused]] const ssize_t w =
+          ::send(fd, odom_replies.data(), odom_replies.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    }
     switch (status) {
       case ControlRequestReader::Status::kNeedMore:
         continue;
       case ControlRequestReader::Status::kComplete:
-        ReplyAndClose(fd, Answer(client.request.TakeRequest()));
+        ReplyAndClose(fd, Answer(client.request.request()));
         return;
       case ControlRequestReader::Status::kTooLong:
         ReplyAndClose(fd,
@@ -842,6 +923,14 @@ void Daemon::OnClient(int fd) {
   }
 }
 
+json Daemon::OnOdom(const std::string& line) {
+  std::string error;
+  const std::optional<OdometrySample> sample = ParseOdometryLine(OdomArguments(line), &error);
+  if (!sample) return {{"ok", false}, {"error", "odom: " + error}};
+  odometry_.Add(*sample);
+  return {{"ok", true}};
+}
+
 json Daemon::Answer(const std::string& request) {
   switch (ParseControlCommand(request)) {
     case ControlCommand::kTrigger: {
@@ -853,6 +942,8 @@ json Daemon::Answer(const std::string& request) {
       return Status();
     case ControlCommand::kPing:
       return {{"ok", true}};
+    case ControlCommand::kOdom:
+      return OnOdom(request);
     case ControlCommand::kUnknown:
       break;
   }
@@ -887,6 +978,8 @@ json Daemon::Status() {
             {"homography_inliers", session_.last_decision().homography_inliers},
             {"b_tries", session_.tries().size()},
             {"reason", session_.last_decision().reason}}},
+          {"scale",
+           {{"source", ScaleSourceName(config_.scale.source)}, {"odometry", odometry_.Describe()}}},
           {"spool", spool_.dir().string()},
           {"last_result", last_result_}};
 }

@@ -1,8 +1,10 @@
-// `monomesh ctl trigger|status|ping`: talk to a running monomeshd over its control socket.
+// `monomesh ctl trigger|status|ping|odom T X Y Z [QX QY QZ QW]`: talk to a running monomeshd
+// over its control socket.
 
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <vector>
 
 #include "app/config.h"
 #include "app/control.h"
@@ -46,8 +48,7 @@ int RunCtl(const std::string& command, std::filesystem::path socket, const std::
     }
     std::this_thread::sleep_for(100ms);
   }
-  std::cerr << "monomesh ctl: capture " << capture << " did not finish within " << wait_s
-            << " s\n";
+  std::cerr << "monomesh ctl: capture " << capture << " did not finish within " << wait_s << " s\n";
   return 1;
 }
 
@@ -57,21 +58,37 @@ Runner AddCtlCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("ctl", "Send a command to a running monomeshd");
   struct Args {
     std::string command;
+    std::vector<std::string> odom;  // odom's numbers, as given.
     std::string socket = "/run/monomesh/control.sock";
     std::string config;
     double wait_s = 0;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("command", args->command, "trigger | status | ping")
+  cmd->add_option("command", args->command, "trigger | status | ping | odom")
       ->required()
-      ->check(CLI::IsMember({"trigger", "status", "ping"}));
+      ->check(CLI::IsMember({"trigger", "status", "ping", "odom"}));
+  cmd->add_option("values", args->odom,
+                  "With odom: T X Y Z [QX QY QZ QW] (seconds on [scale] odometry_clock, metres)")
+      ->expected(0, 7);
   cmd->add_option("--socket", args->socket, "Control socket")->capture_default_str();
   cmd->add_option("--config", args->config, "Take the socket path from this daemon config");
   cmd->add_option("--wait", args->wait_s,
                   "With trigger: wait up to this many seconds for the result");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
-    return RunCtl(args->command, args->socket, args->config, args->wait_s);
+    std::string command = args->command;
+    if (command == "odom") {
+      if (args->odom.size() != 4 && args->odom.size() != 8) {
+        std::cerr << "monomesh ctl odom: expected T X Y Z [QX QY QZ QW], got " << args->odom.size()
+                  << " values\n";
+        return 2;
+      }
+      for (const std::string& v : args->odom) command += " " + v;
+    } else if (!args->odom.empty()) {
+      std::cerr << "monomesh ctl " << command << ": takes no values\n";
+      return 2;
+    }
+    return RunCtl(command, args->socket, args->config, args->wait_s);
   };
 }
 

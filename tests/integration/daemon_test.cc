@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <iterator>
 #include <opencv2/imgcodecs.hpp>
@@ -466,6 +467,79 @@ TEST(Daemon, ControlRequestsAreLineBufferedBoundedAndTimedOut) {
 
 // More clients than the cap are answered "busy" and closed; the held ones time out and the
 // daemon serves again.
+// The robot's odometry over the control socket scales the entry. A bridge streams the ground
+// truth's camera centres on one connection (dataset time: [scale] odometry_clock = "camera",
+// the replay camera's clock); the entry is in metres, its baseline the ground truth's between the
+// keyframes. With no odometry the entry stays up to scale and says why.
+TEST(Daemon, OdometryStreamedOnTheControlSocketScalesTheEntry) {
+  const std::string scale_keys = "[scale]\nsource = \"odometry\"\nodometry_clock = \"camera\"\n";
+  DaemonProcess daemon("odom", "rate=realtime&loop=0", scale_keys);
+  daemon.Start();
+  const Trajectory truth = Trajectory::Read(kData / "groundtruth.txt");
+  UniqueFd bridge = ConnectRaw(daemon.socket());
+  ASSERT_TRUE(bridge.valid());
+  std::string lines;
+  for (const TimedPose& pose : truth.poses()) {
+    const Eigen::Vector3d c = pose.world_from_cam.translation();
+    char line[128];
+    std::snprintf(line, sizeof(line), "odom %.4f %.6f %.6f %.6f\n", pose.timestamp_s, c.x(), c.y(),
+                  c.z());
+    lines += line;
+  }
+  lines += "odom 1 2 nan 4\n";  // A bad line is answered, and the stream goes on.
+  // Written while the answers are read, as a bridge that reads them does (the answers of one
+  // that does not are dropped once its socket buffer is full).
+  std::thread writer([&] { SendRaw(bridge.get(), lines); });
+  struct Join {
+    std::thread& t;
+    ~Join() { t.join(); }
+  } join{writer};
+  std::string replies;
+  const size_t expected = truth.poses().size() + 1;
+  while (static_cast<size_t>(std::count(replies.begin(), replies.end(), '\n')) < expected) {
+    pollfd p{bridge.get(), POLLIN, 0};
+    ASSERT_GT(::poll(&p, 1, 10000), 0) << "replies so far:\n" << replies;
+    char buf[4096];
+    const ssize_t n = ::recv(bridge.get(), buf, sizeof(buf), 0);
+    ASSERT_GT(n, 0) << "the daemon closed the bridge's connection after "
+                    << std::count(replies.begin(), replies.end(), '\n') << " of " << expected
+                    << " replies:\n"
+                    << replies.substr(replies.size() > 300 ? replies.size() - 300 : 0);
+    replies.append(buf, static_cast<size_t>(n));
+  }
+  EXPECT_EQ(std::count(replies.begin(), replies.end(), '\n'),
+            static_cast<std::ptrdiff_t>(expected));
+  EXPECT_NE(replies.find("{\"error\":\"odom: "), std::string::npos) << replies;
+  EXPECT_EQ(daemon.Status()["scale"]["odometry"]["samples"].get<size_t>(), truth.poses().size());
+
+  const json result = daemon.TriggerAndWait(120s);
+  ASSERT_TRUE(result.value("ok", false)) << result.dump() << "\n" << daemon.log();
+  const EntryReport report = ReadReport(result["entry"].get<std::string>());
+  EXPECT_EQ(report.scale.source, "odometry") << report.scale.why_not;
+  EXPECT_EQ(report.scale.units, "metres");
+  const std::optional<Eigen::Isometry3d> world_from_a =
+      truth.WorldFromCamAt(report.keyframe_a.source_time_s);
+  const std::optional<Eigen::Isometry3d> world_from_b =
+      truth.WorldFromCamAt(report.keyframe_b.source_time_s);
+  ASSERT_TRUE(world_from_a && world_from_b);
+  const double baseline_m = (world_from_b->translation() - world_from_a->translation()).norm();
+  std::cout << "[ figures  ] odometry baseline " << baseline_m << " m, entry "
+            << report.relative_pose.translation.norm() << " m\n";
+  EXPECT_NEAR(report.scale.metres_per_unit, baseline_m, 1e-3 * baseline_m);
+  EXPECT_NEAR(report.relative_pose.translation.norm(), baseline_m, 1e-3 * baseline_m);
+  bridge.reset();
+
+  DaemonProcess without("odom_none", "rate=realtime&loop=0", scale_keys);
+  without.Start();
+  const json unscaled = without.TriggerAndWait(120s);
+  ASSERT_TRUE(unscaled.value("ok", false)) << unscaled.dump() << "\n" << without.log();
+  const EntryReport none = ReadReport(unscaled["entry"].get<std::string>());
+  EXPECT_EQ(none.scale.source, "none");
+  EXPECT_EQ(none.scale.units, "baseline");
+  EXPECT_NE(none.scale.why_not.find("no odometry received"), std::string::npos)
+      << none.scale.why_not;
+}
+
 // 48 connections held without a word: each beyond the cap of 32 takes the slot of the one idle
 // longest, which is answered "busy" and closed; the daemon keeps serving.
 TEST(Daemon, ClientsBeyondTheCapEvictTheOneIdleLongest) {
