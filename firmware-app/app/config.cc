@@ -79,6 +79,18 @@ class Reader {
     *out = *v;
   }
 
+  // A word naming one of T's values: `parse` maps a word to a value (nullopt for another
+  // word), `name` a value to its word (for the default). `what` ends "'word' is not ...".
+  template <typename T, typename Parse, typename Name>
+  void GetChoice(const toml::table* table, const std::string& tname, const char* key, Parse parse,
+                 Name name, const std::string& what, T* out) {
+    std::string word = name(*out);
+    Get(table, tname, key, &word);
+    const std::optional<T> value = parse(word);
+    Require(value.has_value(), table, tname, key, "'" + word + "' is not " + what);
+    *out = *value;
+  }
+
   void GetPath(const toml::table* table, const std::string& tname, const char* key,
                const std::filesystem::path& base, std::filesystem::path* out) {
     std::string s;
@@ -203,12 +215,8 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.Require(c.keyframe_timeout_s > 0, keyframes, "keyframes", "timeout_s", "must be > 0");
 
   const auto* recon = r.Table("recon");
-  std::string sift = SiftImplName(c.recon.sift.impl);
-  r.Get(recon, "recon", "sift", &sift);
-  const std::optional<SiftImpl> impl = ParseSiftImpl(sift);
-  r.Require(impl.has_value(), recon, "recon", "sift",
-            "'" + sift + "' is not an implementation (own or opencv)");
-  c.recon.sift.impl = impl.value_or(c.recon.sift.impl);
+  r.GetChoice(recon, "recon", "sift", ParseSiftImpl, SiftImplName,
+              "an implementation (own or opencv)", &c.recon.sift.impl);
   r.GetNumber(recon, "recon", "max_features", {0, kMaxCount}, &c.recon.sift.max_features);
   r.GetNumber(recon, "recon", "contrast_threshold", {0.0, 1.0}, &c.recon.sift.contrast_threshold);
   r.GetNumber(recon, "recon", "match_ratio", {0.0, 1.0}, &c.recon.match.ratio);
@@ -229,12 +237,8 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   }
 
   const auto* mesh = r.Table("mesh");
-  std::string mode = MeshModeName(c.recon.mesh_mode);
-  r.Get(mesh, "mesh", "mode", &mode);
-  const std::optional<MeshMode> mesh_mode = ParseMeshMode(mode);
-  r.Require(mesh_mode.has_value(), mesh, "mesh", "mode",
-            "'" + mode + "' is not a mesh mode (dense or sparse)");
-  c.recon.mesh_mode = mesh_mode.value_or(c.recon.mesh_mode);
+  r.GetChoice(mesh, "mesh", "mode", ParseMeshMode, MeshModeName, "a mesh mode (dense or sparse)",
+              &c.recon.mesh_mode);
   r.GetNumber(mesh, "mesh", "vertex_budget", {16, 1000000}, &c.recon.dense_mesh.vertex_budget);
 
   // The gate applies the reconstruction's own tests (one notion of "enough parallax").
@@ -245,23 +249,22 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   }
 
   const auto* scale = r.Table("scale");
-  std::string source = ScaleSourceName(c.scale.source);
-  r.Get(scale, "scale", "source", &source);
-  const std::optional<ScaleSource> scale_source = ParseScaleSource(source);
-  r.Require(scale_source.has_value(), scale, "scale", "source",
-            "'" + source + "' is not a scale source (none, odometry, floor or auto)");
-  c.scale.source = scale_source.value_or(c.scale.source);
+  r.GetChoice(scale, "scale", "source", ParseScaleSource, ScaleSourceName,
+              "a scale source (none, odometry, floor or auto)", &c.scale.source);
   r.GetNumber(scale, "scale", "camera_height_m", {0.0, 100.0}, &c.scale.camera_height_m);
   r.GetNumber(scale, "scale", "camera_pitch_deg", {-90.0, 90.0}, &c.scale.camera_pitch_deg);
   r.GetNumber(scale, "scale", "min_baseline_m", {0.0, 100.0}, &c.scale.min_baseline_m);
   r.GetNumber(scale, "scale", "max_odom_age_s", {0.0, 60.0}, &c.max_odom_age_s);
-  std::string clock =
-      c.odometry_clock == DaemonConfig::OdometryClock::kCamera ? "camera" : "realtime";
-  r.Get(scale, "scale", "odometry_clock", &clock);
-  r.Require(clock == "realtime" || clock == "camera", scale, "scale", "odometry_clock",
-            "'" + clock + "' is not a clock (realtime or camera)");
-  c.odometry_clock = clock == "camera" ? DaemonConfig::OdometryClock::kCamera
-                                       : DaemonConfig::OdometryClock::kRealtime;
+  using Clock = DaemonConfig::OdometryClock;
+  r.GetChoice(
+      scale, "scale", "odometry_clock",
+      [](const std::string& word) -> std::optional<Clock> {
+        if (word == "realtime") return Clock::kRealtime;
+        if (word == "camera") return Clock::kCamera;
+        return std::nullopt;
+      },
+      [](Clock clock) { return clock == Clock::kCamera ? "camera" : "realtime"; },
+      "a clock (realtime or camera)", &c.odometry_clock);
   if (const std::string problem = c.scale.Check(); !problem.empty()) {
     const std::string key = problem.substr(0, problem.find(':'));
     r.Require(false, scale, "scale", key.c_str(), problem.substr(problem.find(':') + 2));
