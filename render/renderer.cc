@@ -151,24 +151,20 @@ Eigen::Matrix4f GlProjectionFromK(const Eigen::Matrix3d& K, int width, int heigh
   return P.cast<float>();
 }
 
-// The surfaceless EGLDisplay is one per process, shared by every Renderer: it is initialized
-// by the first and terminated with the last (eglTerminate would pull it from under the others).
+// The surfaceless EGLDisplay is one per process, shared by every Renderer and initialized by the
+// first. It is never terminated: eglTerminate would pull it from under other Renderers, and
+// Mesa's terminate unloads the driver (llvmpipe), which each entry's preview would then load
+// again, and leaves blocks allocated by the unloaded driver unreachable (LeakSanitizer reports
+// them when the daemon exits). The process's exit releases it.
 namespace {
 std::mutex display_mutex;
-int display_users = 0;  // Guarded by display_mutex.
 }  // namespace
 
 struct Renderer::Impl {
   // Destroyed in reverse order: GL names (with this context made current first, in ~Impl),
-  // then the context, then the display reference.
+  // then the context.
   struct Display {
     EGLDisplay handle = EGL_NO_DISPLAY;
-    bool counted = false;
-    ~Display() {
-      if (!counted) return;
-      std::lock_guard<std::mutex> lock(display_mutex);
-      if (--display_users == 0) eglTerminate(handle);
-    }
   } display;
   struct Context {
     EGLDisplay display = EGL_NO_DISPLAY;
@@ -232,8 +228,6 @@ bool Renderer::Impl::Init() {
       error = "EGL: eglInitialize failed " + Hex(static_cast<unsigned>(eglGetError()));
       return false;
     }
-    ++display_users;
-    display.counted = true;
   }
   if (!eglBindAPI(EGL_OPENGL_ES_API)) {
     error = "EGL: OpenGL ES API unavailable";

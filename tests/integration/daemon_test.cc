@@ -151,8 +151,8 @@ TEST(Daemon, SigtermFinishesTheReconstructionOrLogsTheCaptureAbandoned) {
       const json status = daemon.Status();
       if (status["state"] == "reconstructing") {
         const int wait_status = daemon.Kill(SIGTERM);
-        ASSERT_TRUE(WIFEXITED(wait_status)) << wait_status;
-        EXPECT_EQ(WEXITSTATUS(wait_status), 0);
+        ASSERT_TRUE(WIFEXITED(wait_status)) << wait_status << "; log:\n" << daemon.log();
+        EXPECT_EQ(WEXITSTATUS(wait_status), 0) << daemon.log();
         stopped_while_reconstructing = true;
         const std::string log = daemon.log();
         const std::string capture = "capture " + std::to_string(id);
@@ -179,8 +179,8 @@ TEST(Daemon, SigtermFinishesTheReconstructionOrLogsTheCaptureAbandoned) {
   const json reply = tracking.Command("trigger");
   ASSERT_TRUE(reply.value("ok", false)) << reply.dump();
   const int wait_status = tracking.Kill(SIGTERM);
-  ASSERT_TRUE(WIFEXITED(wait_status));
-  EXPECT_EQ(WEXITSTATUS(wait_status), 0);
+  ASSERT_TRUE(WIFEXITED(wait_status)) << wait_status << "; log:\n" << tracking.log();
+  EXPECT_EQ(WEXITSTATUS(wait_status), 0) << tracking.log();
   EXPECT_NE(tracking.log().find("capture " + std::to_string(reply["capture"].get<uint64_t>()) +
                                 " abandoned: stopped while tracking"),
             std::string::npos)
