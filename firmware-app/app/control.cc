@@ -105,8 +105,13 @@ UniqueFd ListenControlSocket(const std::filesystem::path& path, const ControlSoc
   return fd;
 }
 
-std::string SendControlCommand(const std::filesystem::path& path, const std::string& command,
-                               std::chrono::milliseconds timeout) {
+namespace {
+
+// A status line is a few KiB: whatever streams more without an end of line is no daemon.
+constexpr size_t kMaxReplyBytes = size_t{1} << 20;
+
+// Connects to the daemon and sends one request line.
+UniqueFd ConnectAndSend(const std::filesystem::path& path, const std::string& command) {
   const sockaddr_un addr = Address(path);
   UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
   if (!fd.valid()) throw ControlError(Errno(path, "socket"));
@@ -118,29 +123,63 @@ std::string SendControlCommand(const std::filesystem::path& path, const std::str
       static_cast<ssize_t>(line.size())) {
     throw ControlError(Errno(path, "send"));
   }
-  std::string reply;
+  return fd;
+}
+
+// Reads until `pending` holds a whole line or the daemon closes; false when it closed first.
+// A negative timeout waits without limit.
+bool ReadLine(int fd, const std::filesystem::path& path, std::chrono::milliseconds timeout,
+              std::string* pending) {
   char buf[4096];
-  while (reply.find('\n') == std::string::npos) {
-    pollfd p{fd.get(), POLLIN, 0};
+  while (pending->find('\n') == std::string::npos) {
+    pollfd p{fd, POLLIN, 0};
     const int ready = ::poll(&p, 1, static_cast<int>(timeout.count()));
     if (ready == 0) throw ControlTimeout("control socket " + path.string() + ": no reply in time");
     if (ready < 0) {
       if (errno == EINTR) continue;
       throw ControlError(Errno(path, "poll"));
     }
-    const ssize_t n = ::recv(fd.get(), buf, sizeof(buf), 0);
-    if (n < 0) throw ControlError(Errno(path, "recv"));
-    if (n == 0) break;
-    reply.append(buf, static_cast<size_t>(n));
-    // A status line is a few KiB: whatever streams more without an end of line is no daemon.
-    constexpr size_t kMaxReplyBytes = size_t{1} << 20;
-    if (reply.size() > kMaxReplyBytes && reply.find('\n') == std::string::npos) {
+    const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw ControlError(Errno(path, "recv"));
+    }
+    if (n == 0) return false;
+    pending->append(buf, static_cast<size_t>(n));
+    if (pending->size() > kMaxReplyBytes && pending->find('\n') == std::string::npos) {
       throw ControlError("control socket " + path.string() + ": reply longer than " +
                          std::to_string(kMaxReplyBytes) + " bytes without an end of line");
     }
   }
+  return true;
+}
+
+}  // namespace
+
+std::string SendControlCommand(const std::filesystem::path& path, const std::string& command,
+                               std::chrono::milliseconds timeout) {
+  const UniqueFd fd = ConnectAndSend(path, command);
+  std::string reply;
+  ReadLine(fd.get(), path, timeout, &reply);
   if (const auto nl = reply.find('\n'); nl != std::string::npos) reply.resize(nl);
   return reply;
+}
+
+void WatchControlEvents(const std::filesystem::path& path,
+                        const std::function<bool(const std::string& line)>& on_line) {
+  const UniqueFd fd = ConnectAndSend(path, "watch");
+  std::string pending;
+  for (;;) {
+    const bool whole = ReadLine(fd.get(), path, std::chrono::milliseconds(-1), &pending);
+    size_t start = 0;
+    for (size_t nl = pending.find('\n'); nl != std::string::npos;
+         nl = pending.find('\n', start)) {
+      if (!on_line(pending.substr(start, nl - start))) return;
+      start = nl + 1;
+    }
+    pending.erase(0, start);
+    if (!whole) return;  // The daemon closed (stopped, or dropped a watcher that fell behind).
+  }
 }
 
 }  // namespace mm

@@ -1,6 +1,8 @@
 #pragma once
 // The daemon's control socket: a UNIX stream socket, one request line per connection
-// ("trigger", "status", "ping"), one JSON reply line, then the daemon closes the connection.
+// ("trigger", "status", "ping"), one JSON reply line, then the daemon closes the connection;
+// `odom` lines may follow each other, and `watch` subscribes the connection to the daemon's
+// events (docs/control.md).
 // The line may arrive in pieces; it ends at '\n' or when the client shuts down writing. The
 // daemon answers an error and closes a request longer than 256 bytes and one without an end of
 // line within 5 s; an idle connection is closed after 5 s. It holds at most 32 connections: a
@@ -10,6 +12,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -61,5 +64,12 @@ UniqueFd ListenControlSocket(const std::filesystem::path& path,
 /// \throws ControlError naming the socket when no daemon answers.
 std::string SendControlCommand(const std::filesystem::path& path, const std::string& command,
                                std::chrono::milliseconds timeout);
+
+/// Subscribes to the daemon's events (`watch`): `on_line` gets the subscription's reply, then
+/// one JSON line per event, until it returns false or the daemon closes the connection.
+/// \throws ControlError naming the socket when no daemon answers, or when the daemon sends
+/// more than 1 MiB without an end of line.
+void WatchControlEvents(const std::filesystem::path& path,
+                        const std::function<bool(const std::string& line)>& on_line);
 
 }  // namespace mm

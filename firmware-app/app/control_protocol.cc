@@ -57,6 +57,7 @@ ControlCommand ParseControlCommand(std::string_view line) {
   if (line == "trigger") return ControlCommand::kTrigger;
   if (line == "status") return ControlCommand::kStatus;
   if (line == "ping") return ControlCommand::kPing;
+  if (line == "watch") return ControlCommand::kWatch;
   if (line.starts_with("odom ")) return ControlCommand::kOdom;
   return ControlCommand::kUnknown;
 }
@@ -67,7 +68,7 @@ std::string_view OdomArguments(std::string_view line) {
 }
 
 std::string UnknownControlCommandError(std::string_view request) {
-  return "unknown command '" + std::string(request) + "' (known: trigger, status, ping, odom)";
+  return "unknown command '" + std::string(request) + "' (known: trigger, status, ping, odom, watch)";
 }
 
 }  // namespace mm

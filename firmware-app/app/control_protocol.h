@@ -2,7 +2,8 @@
 // The control protocol without the socket (control.h): request lines, which may arrive in
 // pieces and end at '\n' (or where the client shuts down writing), each answered by one JSON
 // line. A connection carries one command, except that `odom` lines (a robot's odometry bridge)
-// may follow each other on one connection. Pure, so the framing and the command parser are
+// may follow each other on one connection, and that `watch` turns the connection into a
+// subscription: the daemon writes one JSON line per event until either side closes. Pure, so the framing and the command parser are
 // unit-tested and fuzzed apart from the daemon.
 
 #include <cstddef>
@@ -51,7 +52,7 @@ class ControlRequestReader {
   Status status_ = Status::kNeedMore;
 };
 
-enum class ControlCommand { kTrigger, kStatus, kPing, kOdom, kUnknown };
+enum class ControlCommand { kTrigger, kStatus, kPing, kOdom, kWatch, kUnknown };
 
 /// The command a request line names (its first word, for `odom` the rest are its arguments);
 /// a trailing '\r' (a telnet line) is ignored.

@@ -51,6 +51,9 @@ TEST(ParseControlCommand, KnownCommandsAndTelnetLineEnds) {
   EXPECT_EQ(ParseControlCommand("trigger"), ControlCommand::kTrigger);
   EXPECT_EQ(ParseControlCommand("status\r"), ControlCommand::kStatus);
   EXPECT_EQ(ParseControlCommand("ping"), ControlCommand::kPing);
+  EXPECT_EQ(ParseControlCommand("watch"), ControlCommand::kWatch);
+  EXPECT_EQ(ParseControlCommand("watch\r"), ControlCommand::kWatch);
+  EXPECT_EQ(ParseControlCommand("watch all"), ControlCommand::kUnknown);
   EXPECT_EQ(ParseControlCommand("odom 1.5 0 0 0\r"), ControlCommand::kOdom);
   EXPECT_EQ(OdomArguments("odom 1.5 0 0 0\r"), "1.5 0 0 0");
   EXPECT_EQ(ParseControlCommand("odom"), ControlCommand::kUnknown);

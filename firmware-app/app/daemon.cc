@@ -334,6 +334,11 @@ class Worker {
 // The control protocol's limits (control.h): one request line per connection.
 constexpr auto kClientIdleTimeout = std::chrono::seconds(5);  // A held connection is closed.
 constexpr size_t kMaxClients = 32;  // At the cap, the one idle longest makes room.
+// Watchers hold their slots (they are never idle-closed or evicted), so they are capped below
+// the table: requests always find room.
+constexpr size_t kMaxWatchers = 8;
+// Gate progress events while tracking, at most this often (the gate sees every frame).
+constexpr auto kGateEventPeriod = std::chrono::milliseconds(200);
 constexpr auto kAcceptBackoff = std::chrono::milliseconds(200);  // After EMFILE / ENFILE.
 
 // A control-socket client: the request line is collected across reads (a command may arrive in
@@ -342,6 +347,7 @@ struct Client {
   UniqueFd fd;
   ControlRequestReader request;
   std::chrono::steady_clock::time_point last_read;
+  bool watching = false;  // Subscribed with `watch`: gets the events, sends nothing more.
 };
 
 enum class State { kIdle, kTracking, kReconstructing };
@@ -384,6 +390,9 @@ class Daemon {
   void OnClient(int fd);
   json Answer(const std::string& request);
   json OnOdom(const std::string& line);
+  void OnWatch(int fd);
+  void Emit(json event);
+  void EmitCameraChanges();
   void FinishOnStop();
   void ReplyAndClose(int fd, const json& reply);
   void CloseClient(int fd);
@@ -427,6 +436,12 @@ class Daemon {
   json last_result_ = nullptr;
   uint64_t watchdog_usec_ = 0;
   std::chrono::steady_clock::time_point last_watchdog_;
+  uint64_t events_ = 0;  // Events emitted (each carries its number, `seq`).
+  std::chrono::steady_clock::time_point last_gate_event_;
+  uint64_t camera_errors_seen_ = 0;  // CaptureStats::errors at the last camera event.
+  uint64_t camera_frames_seen_ = 0;
+  bool camera_failing_ = false;      // An error since the last frame.
+  bool camera_ended_ = false;
   bool stop_ = false;
   bool stopping_ = false;  // Set once the loop has ended: results end captures, start nothing.
 };
@@ -448,6 +463,7 @@ Trigger* Daemon::FindTrigger(int fd) const {
 }
 
 void Daemon::SetState(State s) {
+  if (s != state_) Emit({{"event", "state"}, {"state", Name(s)}, {"capture", captures_}});
   state_ = s;
   sd_notifyf(0, "STATUS=%s; %llu captures, %llu meshes", Name(s),
              static_cast<unsigned long long>(captures_),
@@ -602,6 +618,7 @@ int Daemon::Run() {
   }
   sd_notify(0, "STOPPING=1");
   FinishOnStop();
+  Emit({{"event", "stopped"}});
   capture_->Stop();
   // Only the socket this daemon bound (not a file put there since).
   struct stat now {};
@@ -623,14 +640,22 @@ void Daemon::FinishOnStop() {
     OnJobDone();
   } else if (state_ == State::kTracking) {
     spdlog::warn("capture {} abandoned: stopped while tracking, before keyframe B", captures_);
+    Emit({{"event", "capture_abandoned"},
+          {"capture", captures_},
+          {"error", "stopped while tracking, before keyframe B"}});
   }
   gate_.reset();  // After OnJobDone, which settles the gate first.
   worker_.reset();
 }
 
 void Daemon::OnTrigger(const char* origin, json* reply) {
+  // Every refusal is answered, logged and emitted.
+  const auto refuse = [&](const std::string& error) {
+    *reply = {{"ok", false}, {"error", error}};
+    Emit({{"event", "trigger_refused"}, {"origin", origin}, {"error", error}});
+  };
   if (state_ != State::kIdle) {
-    *reply = {{"ok", false}, {"error", std::string("busy: ") + Name(state_)}};
+    refuse(std::string("busy: ") + Name(state_));
     spdlog::warn("trigger ({}) refused: busy {}", origin, Name(state_));
     return;
   }
@@ -639,7 +664,7 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   (void)gate_->Take();
   FramePtr latest = capture_->Latest();
   if (!latest) {
-    *reply = {{"ok", false}, {"error", "no frame from the camera yet"}};
+    refuse("no frame from the camera yet");
     spdlog::warn("trigger ({}) refused: no frame yet", origin);
     return;
   }
@@ -647,8 +672,7 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   try {
     undistorted = undistorter_.Apply(latest->image);
   } catch (const std::exception& e) {
-    *reply = {{"ok", false},
-              {"error", std::string("frame does not fit the calibration: ") + e.what()}};
+    refuse(std::string("frame does not fit the calibration: ") + e.what());
     spdlog::error("trigger ({}) refused: {}", origin, e.what());
     return;
   }
@@ -661,6 +685,12 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   worker_->Prepare(captures_, undistorted_a_);
   spdlog::info("capture {} ({}): keyframe A = frame {} ({}), {} corners to track", captures_,
                origin, keyframe_a_->sequence, keyframe_a_->source_id, corners);
+  Emit({{"event", "keyframe_a"},
+        {"capture", captures_},
+        {"origin", origin},
+        {"frame", keyframe_a_->sequence},
+        {"source", keyframe_a_->source_id},
+        {"corners", corners}});
   SetState(State::kTracking);
   *reply = {{"ok", true}, {"capture", captures_}};
 }
@@ -671,6 +701,7 @@ double Daemon::NowSeconds() {
 
 void Daemon::EndCapture(const std::string& error) {
   spdlog::error("capture {}: {}", captures_, error);
+  Emit({{"event", "capture_failed"}, {"capture", captures_}, {"error", error}});
   session_.Abort(error);
   last_result_ = {{"capture", captures_},
                   {"ok", false},
@@ -728,7 +759,20 @@ void Daemon::ApplyGate(const TrackedFrame& tracked) {
     EndCapture(session_.failure_reason());
     return;
   }
-  if (step != CaptureSession::Step::kSubmitB) return;
+  if (step != CaptureSession::Step::kSubmitB) {
+    const auto now = std::chrono::steady_clock::now();
+    if (state_ == State::kTracking && now - last_gate_event_ >= kGateEventPeriod) {
+      last_gate_event_ = now;
+      Emit({{"event", "gate"},
+            {"capture", captures_},
+            {"frame", frame->sequence},
+            {"tracks", d.tracks},
+            {"parallax_deg", d.median_parallax_deg},
+            {"target_deg", config_.gate.parallax_deg},
+            {"reason", d.reason}});
+    }
+    return;
+  }
   const std::string try_note =
       session_.tries().size() > 1 ? fmt::format(" (try {})", session_.tries().size()) : "";
   if (session_.tries().back().after_lost_track) {
@@ -739,6 +783,14 @@ void Daemon::ApplyGate(const TrackedFrame& tracked) {
                  captures_, frame->sequence, frame->source_id, d.median_parallax_deg,
                  d.essential_inliers, try_note);
   }
+  Emit({{"event", "keyframe_b"},
+        {"capture", captures_},
+        {"frame", frame->sequence},
+        {"source", frame->source_id},
+        {"parallax_deg", d.median_parallax_deg},
+        {"inliers", d.essential_inliers},
+        {"after_lost_track", session_.tries().back().after_lost_track},
+        {"try", session_.tries().size()}});
   Job job{captures_,           keyframe_a_,       frame,           undistorted_a_,
           tracked.undistorted, session_.Tracks(), session_.tries()};
   if (!worker_->Submit(std::move(job))) {
@@ -757,11 +809,15 @@ void Daemon::OnJobDone() {
       if (step == CaptureSession::Step::kWait && stopping_) {
         spdlog::warn("capture {} abandoned: keyframe B refused ({}) while stopping", o->capture_id,
                      o->refusal);
+        Emit({{"event", "capture_abandoned"},
+              {"capture", o->capture_id},
+              {"error", "keyframe B refused (" + o->refusal + ") while stopping"}});
         continue;
       }
       if (step == CaptureSession::Step::kWait) {
         spdlog::info("capture {}: keyframe B refused ({}); tracking on for a later B",
                      o->capture_id, o->refusal);
+        Emit({{"event", "keyframe_b_refused"}, {"capture", o->capture_id}, {"reason", o->refusal}});
         SetState(State::kTracking);
         OnFrame();
         continue;
@@ -774,8 +830,14 @@ void Daemon::OnJobDone() {
       ++succeeded_;
       spdlog::info("capture {}: mesh written to {} ({:.2f} s, {} B tried)", o->capture_id, o->entry,
                    o->seconds, session_.tries().size());
+      Emit({{"event", "entry"},
+            {"capture", o->capture_id},
+            {"entry", o->entry},
+            {"seconds", o->seconds},
+            {"b_tries", session_.tries().size()}});
     } else {
       spdlog::error("capture {}: {}", o->capture_id, o->error);
+      Emit({{"event", "capture_failed"}, {"capture", o->capture_id}, {"error", o->error}});
     }
     last_result_ = {{"capture", o->capture_id}, {"ok", o->ok},
                     {"entry", o->entry},        {"error", o->error},
@@ -788,6 +850,7 @@ void Daemon::OnJobDone() {
 
 void Daemon::OnTimer() {
   const auto now = std::chrono::steady_clock::now();
+  EmitCameraChanges();
   if (state_ == State::kTracking &&
       session_.OnTime(NowSeconds()) == CaptureSession::Step::kFailed) {
     EndCapture(session_.failure_reason());
@@ -802,7 +865,7 @@ void Daemon::OnTimer() {
   }
   std::vector<int> idle;
   for (const auto& [fd, client] : clients_) {
-    if (now - client.last_read > kClientIdleTimeout) idle.push_back(fd);
+    if (!client.watching && now - client.last_read > kClientIdleTimeout) idle.push_back(fd);
   }
   for (int fd : idle) {
     if (clients_.at(fd).request.buffered() == 0) {
@@ -837,9 +900,12 @@ void Daemon::OnAccept() {
     if (clients_.size() >= kMaxClients) {
       // Still full: the client idle longest makes room. A flood of idle connections cycles
       // through the slots while a client that asks is served.
+      // Watchers are not idle (kMaxWatchers < kMaxClients leaves requests to choose from).
       const auto oldest = std::min_element(
-          clients_.begin(), clients_.end(),
-          [](const auto& a, const auto& b) { return a.second.last_read < b.second.last_read; });
+          clients_.begin(), clients_.end(), [](const auto& a, const auto& b) {
+            return std::pair(a.second.watching, a.second.last_read) <
+                   std::pair(b.second.watching, b.second.last_read);
+          });
       ReplyAndClose(oldest->first,
                     {{"ok", false},
                      {"error", "busy: " + std::to_string(kMaxClients) +
@@ -877,6 +943,16 @@ void Daemon::OnClient(int fd) {
   if (it == clients_.end()) return;  // Closed earlier in this batch of events.
   Client& client = it->second;
   char buf[512];
+  if (client.watching) {
+    // A watcher only listens: what it sends is read and dropped; its hang-up closes it.
+    for (;;) {
+      const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+      if (n > 0) continue;
+      if (n < 0 && errno == EINTR) continue;
+      if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK)) CloseClient(fd);
+      return;
+    }
+  }
   for (;;) {
     const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
     ControlRequestReader::Status status;
@@ -908,7 +984,11 @@ void Daemon::OnClient(int fd) {
       case ControlRequestReader::Status::kNeedMore:
         continue;
       case ControlRequestReader::Status::kComplete:
-        ReplyAndClose(fd, Answer(client.request.request()));
+        if (ParseControlCommand(client.request.request()) == ControlCommand::kWatch) {
+          OnWatch(fd);
+        } else {
+          ReplyAndClose(fd, Answer(client.request.request()));
+        }
         return;
       case ControlRequestReader::Status::kTooLong:
         ReplyAndClose(fd,
@@ -920,6 +1000,67 @@ void Daemon::OnClient(int fd) {
         CloseClient(fd);
         return;
     }
+  }
+}
+
+void Daemon::OnWatch(int fd) {
+  const size_t watchers = static_cast<size_t>(std::count_if(
+      clients_.begin(), clients_.end(), [](const auto& c) { return c.second.watching; }));
+  if (watchers >= kMaxWatchers) {
+    ReplyAndClose(fd, {{"ok", false},
+                       {"error", "busy: " + std::to_string(kMaxWatchers) + " watchers connected"}});
+    return;
+  }
+  // The reply says where things stand, so a watcher needs no status request besides.
+  const std::string line =
+      JsonText({{"ok", true}, {"watching", true}, {"seq", events_}, {"status", Status()}}) + "\n";
+  if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT) !=
+      static_cast<ssize_t>(line.size())) {
+    CloseClient(fd);
+    return;
+  }
+  clients_.at(fd).watching = true;
+}
+
+// One JSON line to every watcher, numbered and stamped with the wall clock. A watcher whose
+// socket buffer is full (it stopped reading) is closed rather than waited for: the loop never
+// blocks on a watcher, and a watcher never sees a gap it cannot detect (`seq`).
+void Daemon::Emit(json event) {
+  event["seq"] = ++events_;
+  event["time_ns"] = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                         std::chrono::system_clock::now().time_since_epoch())
+                         .count();
+  std::string line;
+  std::vector<int> behind;
+  for (const auto& [fd, client] : clients_) {
+    if (!client.watching) continue;
+    if (line.empty()) line = JsonText(event) + "\n";
+    if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT) !=
+        static_cast<ssize_t>(line.size())) {
+      behind.push_back(fd);
+    }
+  }
+  for (int fd : behind) {
+    spdlog::warn("control socket: a watcher did not keep up with the events; closed");
+    CloseClient(fd);
+  }
+}
+
+// The camera's errors and its return, from the capture thread's counters (polled by the timer).
+void Daemon::EmitCameraChanges() {
+  const CaptureStats stats = capture_->stats();
+  if (stats.errors > camera_errors_seen_) {
+    camera_errors_seen_ = stats.errors;
+    camera_failing_ = true;
+    Emit({{"event", "camera_error"}, {"errors", stats.errors}, {"error", stats.last_error}});
+  } else if (camera_failing_ && stats.frames > camera_frames_seen_) {
+    camera_failing_ = false;
+    Emit({{"event", "camera_back"}, {"frames", stats.frames}});
+  }
+  camera_frames_seen_ = stats.frames;
+  if (stats.end_of_stream && !camera_ended_) {
+    camera_ended_ = true;
+    Emit({{"event", "camera_ended"}, {"frames", stats.frames}});
   }
 }
 
@@ -944,6 +1085,7 @@ json Daemon::Answer(const std::string& request) {
       return {{"ok", true}};
     case ControlCommand::kOdom:
       return OnOdom(request);
+    case ControlCommand::kWatch:  // Served by OnClient (the connection stays).
     case ControlCommand::kUnknown:
       break;
   }

@@ -1,6 +1,7 @@
-// `monomesh ctl trigger|status|ping|odom T X Y Z [QX QY QZ QW]`: talk to a running monomeshd
-// over its control socket.
+// `monomesh ctl trigger|status|ping|watch|odom T X Y Z [QX QY QZ QW]`: talk to a running
+// monomeshd over its control socket.
 
+#include <algorithm>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -52,6 +53,27 @@ int RunCtl(const std::string& command, std::filesystem::path socket, const std::
   return 1;
 }
 
+// Prints the daemon's events, one JSON line each, until the daemon closes the connection or
+// an event named in `until` arrives (exit 0; a daemon that closes first exits 1).
+int RunWatch(std::filesystem::path socket, const std::string& config,
+             const std::vector<std::string>& until) {
+  if (!config.empty()) socket = LoadDaemonConfig(config).control_socket;
+  bool refused = false, reached = false, first = true;
+  WatchControlEvents(socket, [&](const std::string& line) {
+    std::cout << line << "\n" << std::flush;
+    json event = json::parse(line, nullptr, /*allow_exceptions=*/false);
+    if (first) {
+      first = false;
+      refused = !event.is_object() || !event.value("ok", false);
+      return !refused;
+    }
+    const std::string name = event.is_object() ? event.value("event", "") : "";
+    reached = std::find(until.begin(), until.end(), name) != until.end();
+    return !reached;
+  });
+  return refused || (!until.empty() && !reached) ? 1 : 0;
+}
+
 }  // namespace
 
 Runner AddCtlCommand(CLI::App& app) {
@@ -62,11 +84,12 @@ Runner AddCtlCommand(CLI::App& app) {
     std::string socket = "/run/monomesh/control.sock";
     std::string config;
     double wait_s = 0;
+    std::vector<std::string> until;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("command", args->command, "trigger | status | ping | odom")
+  cmd->add_option("command", args->command, "trigger | status | ping | watch | odom")
       ->required()
-      ->check(CLI::IsMember({"trigger", "status", "ping", "odom"}));
+      ->check(CLI::IsMember({"trigger", "status", "ping", "watch", "odom"}));
   cmd->add_option("values", args->odom,
                   "With odom: T X Y Z [QX QY QZ QW] (seconds on [scale] odometry_clock, metres)")
       ->expected(0, 7);
@@ -74,6 +97,9 @@ Runner AddCtlCommand(CLI::App& app) {
   cmd->add_option("--config", args->config, "Take the socket path from this daemon config");
   cmd->add_option("--wait", args->wait_s,
                   "With trigger: wait up to this many seconds for the result");
+  cmd->add_option("--until", args->until,
+                  "With watch: stop after the first event of this name (e.g. entry, "
+                  "capture_failed; repeatable)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     std::string command = args->command;
@@ -88,6 +114,7 @@ Runner AddCtlCommand(CLI::App& app) {
       std::cerr << "monomesh ctl " << command << ": takes no values\n";
       return 2;
     }
+    if (command == "watch") return RunWatch(args->socket, args->config, args->until);
     return RunCtl(command, args->socket, args->config, args->wait_s);
   };
 }

@@ -21,6 +21,7 @@
 #include "dataset/tum.h"
 #include "tests/integration/daemon_process.h"
 #include "tests/support/rotation_sequence.h"
+#include "tests/support/run_command.h"
 
 namespace mm::test {
 namespace {
@@ -471,6 +472,63 @@ TEST(Daemon, ControlRequestsAreLineBufferedBoundedAndTimedOut) {
 // truth's camera centres on one connection (dataset time: [scale] odometry_clock = "camera",
 // the replay camera's clock); the entry is in metres, its baseline the ground truth's between the
 // keyframes. With no odometry the entry stays up to scale and says why.
+// `monomesh ctl watch`: one JSON line per event, numbered without gaps, in the order the capture
+// went through them (gate progress lines may come between any two while tracking).
+TEST(Daemon, WatchStreamsTheEventsOfACaptureInOrder) {
+  ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
+  DaemonProcess daemon("watch", "rate=realtime&loop=1");
+  daemon.Start();
+  const std::string cmd = "timeout 120 " + Monomesh() + " ctl watch --socket " +
+                          daemon.socket().string() + " --until entry --until capture_failed";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::vector<json> lines;
+  char buf[65536];
+  ASSERT_NE(std::fgets(buf, sizeof(buf), pipe), nullptr) << daemon.log();
+  lines.push_back(json::parse(buf));
+  ASSERT_TRUE(lines[0].value("watching", false)) << buf;
+  EXPECT_EQ(lines[0]["status"]["state"], "idle");
+  const json reply = daemon.Command("trigger");
+  ASSERT_TRUE(reply.value("ok", false)) << reply.dump();
+  while (std::fgets(buf, sizeof(buf), pipe) != nullptr) lines.push_back(json::parse(buf));
+  const int status = ::pclose(pipe);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status << "\n" << daemon.log();
+
+  std::string sequence;  // The events' names (a state change as its state), gate lines left out.
+  int gate_lines = 0;
+  uint64_t seq = lines[0]["seq"].get<uint64_t>();
+  int64_t time_ns = 0;
+  for (size_t i = 1; i < lines.size(); ++i) {
+    const json& e = lines[i];
+    EXPECT_EQ(e["seq"].get<uint64_t>(), ++seq) << e.dump();
+    EXPECT_GE(e["time_ns"].get<int64_t>(), time_ns) << e.dump();
+    time_ns = e["time_ns"].get<int64_t>();
+    EXPECT_EQ(e["capture"], reply["capture"]) << e.dump();
+    const std::string name = e["event"];
+    if (name == "gate") {
+      ++gate_lines;
+      EXPECT_GE(e["parallax_deg"].get<double>(), 0.0);
+      continue;
+    }
+    sequence += (name == "state" ? e["state"].get<std::string>() : name) + " ";
+  }
+  std::cout << "[ figures  ] events: " << sequence << "(" << gate_lines << " gate lines)\n";
+  // B refused and tracking on repeats the middle; the capture ends with its entry.
+  std::string_view rest = sequence;
+  const auto take = [&rest](std::string_view part) {
+    if (!rest.starts_with(part)) return false;
+    rest.remove_prefix(part.size());
+    return true;
+  };
+  bool in_order = take("keyframe_a tracking ");
+  while (in_order && take("keyframe_b reconstructing keyframe_b_refused tracking ")) {
+  }
+  in_order = in_order && take("keyframe_b reconstructing entry ") && rest.empty();
+  EXPECT_TRUE(in_order) << sequence << "\n" << daemon.log();
+  ASSERT_EQ(lines.back()["event"], "entry");
+  ExpectCompleteEntry(lines.back()["entry"].get<std::string>());
+}
+
 TEST(Daemon, OdometryStreamedOnTheControlSocketScalesTheEntry) {
   const std::string scale_keys = "[scale]\nsource = \"odometry\"\nodometry_clock = \"camera\"\n";
   DaemonProcess daemon("odom", "rate=realtime&loop=0", scale_keys);
