@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -16,10 +15,9 @@
 #include <thread>
 
 #include "base/poll.h"
+#include "base/process.h"
 #include "capture/libcamera_ipc.h"
 #include "capture/source_uri.h"
-
-extern char** environ;
 
 namespace mm {
 namespace {
@@ -44,15 +42,6 @@ long ReceiveBefore(int socket, Clock::time_point deadline, WorkerMessage* m,
   return lcipc::Receive(socket, m, sizeof(*m), fds);
 }
 
-std::string Ended(int status) {
-  if (WIFEXITED(status)) return "exited " + std::to_string(WEXITSTATUS(status));
-  if (WIFSIGNALED(status)) {
-    const int s = WTERMSIG(status);
-    return "killed by signal " + std::to_string(s) + " (" + strsignal(s) + ")";
-  }
-  return "ended (status " + std::to_string(status) + ")";
-}
-
 }  // namespace
 
 std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, UniqueFd* parent_socket) {
@@ -68,9 +57,6 @@ std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, UniqueFd*
   const int socket = child.get();
   // Checked here: a failed exec is not reported by posix_spawn everywhere (qemu-user: exit 127).
   if (access(argv[0].c_str(), X_OK) != 0) return "cannot start " + argv[0] + ": " + strerror(errno);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, socket, lcipc::kSocketFd);
   // An optional command prefix (an emulator, a debugger): "qemu-aarch64-static -L /sysroot".
   std::vector<std::string> command;
   if (const char* launcher = std::getenv("MM_LIBCAMERA_WORKER_LAUNCHER"); launcher && *launcher) {
@@ -78,28 +64,12 @@ std::string WorkerProcess::Spawn(const std::vector<std::string>& argv, UniqueFd*
     for (std::string w; words >> w;) command.push_back(w);
   }
   command.insert(command.end(), argv.begin(), argv.end());
-  std::vector<char*> args;
-  for (const std::string& a : command) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  // The daemon blocks the signals it reads through signalfd; the worker starts with none blocked,
-  // default handlers, and its own process group (a terminal's ^C is for the daemon, which then
-  // stops the worker).
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  sigset_t none, defaults;
-  sigemptyset(&none);
-  sigemptyset(&defaults);
-  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGUSR2, SIGCHLD}) sigaddset(&defaults, sig);
-  posix_spawnattr_setsigmask(&attr, &none);
-  posix_spawnattr_setsigdefault(&attr, &defaults);
-  posix_spawnattr_setpgroup(&attr, 0);
-  posix_spawnattr_setflags(&attr,
-                           POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
+  // Its own process group: a terminal's ^C is for the daemon, which then stops the worker.
   pid_t pid = -1;
-  const int r = posix_spawn(&pid, command[0].c_str(), &actions, &attr, args.data(), environ);
-  posix_spawnattr_destroy(&attr);
-  posix_spawn_file_actions_destroy(&actions);
-  if (r != 0) return "cannot start " + command[0] + ": " + strerror(r);
+  if (std::string error = SpawnProcess(command, {.dup2 = {{socket, lcipc::kSocketFd}}}, &pid);
+      !error.empty()) {
+    return error;
+  }
   pid_ = pid;
   *parent_socket = std::move(parent);  // The child's end closes here, in this process.
   return {};
@@ -119,7 +89,7 @@ std::string WorkerProcess::Reap(std::chrono::milliseconds timeout) {
     }
   }
   pid_ = -1;
-  return r < 0 ? std::string("lost (waitpid: ") + strerror(errno) + ")" : Ended(status);
+  return r < 0 ? std::string("lost (waitpid: ") + strerror(errno) + ")" : DescribeWaitStatus(status);
 }
 
 std::string LibcameraWorkerPath() {

@@ -2,6 +2,7 @@
 
 #include <sys/un.h>
 #include <toml++/toml.h>
+#include <unistd.h>
 
 #include <set>
 #include <type_traits>
@@ -154,6 +155,9 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "scale.odometry_clock",
                                               "spool.dir",
                                               "spool.max_entries",
+                                              "hooks.on_entry",
+                                              "hooks.on_failure",
+                                              "hooks.timeout_s",
                                               "log.level"};
   return kKeys;
 }
@@ -273,6 +277,22 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   const auto* spool = r.Table("spool");
   r.GetPath(spool, "spool", "dir", c.config_dir, &c.spool_dir);
   r.GetNumber(spool, "spool", "max_entries", {0, kMaxCount}, &c.spool_max_entries);
+
+  const auto* hooks = r.Table("hooks");
+  for (auto [key, argv] : {std::pair{"on_entry", &c.hooks.on_entry},
+                           std::pair{"on_failure", &c.hooks.on_failure}}) {
+    std::string command;
+    r.Get(hooks, "hooks", key, &command);
+    *argv = SplitHookCommand(command);
+    if (argv->empty()) continue;
+    // No shell and no PATH search: the program is a path, relative to the config's folder.
+    const std::filesystem::path program((*argv)[0]);
+    (*argv)[0] = (program.is_absolute() ? program : (c.config_dir / program).lexically_normal());
+    r.Require(::access((*argv)[0].c_str(), X_OK) == 0, hooks, "hooks", key,
+              "'" + (*argv)[0] + "' is not an executable file (a program's path, run without a "
+              "shell; the entry's folder or the reason is its last argument)");
+  }
+  r.GetNumber(hooks, "hooks", "timeout_s", {0.1, 3600.0}, &c.hooks.timeout_s);
 
   const auto* log = r.Table("log");
   r.Get(log, "log", "level", &c.log_level);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "app/hooks.h"
 #include "capture/trigger.h"
 #include "recon/keyframe_gate.h"
 #include "recon/pipeline.h"
@@ -60,6 +61,10 @@ struct DaemonConfig {
   /// place besides /run/monomesh the unit lets the daemon write.
   std::filesystem::path spool_dir = "/var/lib/monomesh/spool";
   int spool_max_entries = 200;  ///< [spool] max_entries (0 = keep all)
+
+  /// [hooks] on_entry, on_failure (commands: a program's path and its arguments, split at
+  /// spaces, no shell), timeout_s.
+  HookOptions hooks;
 
   std::string log_level = "info";  ///< [log] level: trace|debug|info|warn|error
 };

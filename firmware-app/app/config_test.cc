@@ -74,6 +74,9 @@ std::map<std::string, Value> CodeDefaults() {
       {"scale.odometry_clock", std::string("realtime")},
       {"spool.dir", d.spool_dir.string()},
       {"spool.max_entries", int64_t{d.spool_max_entries}},
+      {"hooks.on_entry", std::string()},  // No hook.
+      {"hooks.on_failure", std::string()},
+      {"hooks.timeout_s", d.hooks.timeout_s},
       {"log.level", d.log_level},
   };
 }
@@ -256,6 +259,25 @@ TEST(DaemonConfig, NumbersOutOfRangeAreErrorsNotWrapped) {
       m + "[spool]\nmax_entries = 1e3\n[keyframes]\ntimeout_s = 10\n", "/x/d.toml");
   EXPECT_EQ(c.spool_max_entries, 1000);
   EXPECT_EQ(c.keyframe_timeout_s, 10.0);
+}
+
+// A hook is a program's path and its words (no shell); relative to the config's folder; a
+// program that is not there, or not executable, is an error naming the key.
+TEST(DaemonConfig, HooksAreProgramsWithArguments) {
+  const DaemonConfig c = ParseDaemonConfig(
+      std::string(kMinimal) +
+          "[hooks]\non_entry = \"/bin/sh  -c \t'echo'\"\non_failure = \"\"\ntimeout_s = 2.5\n",
+      "/etc/monomesh/d.toml");
+  EXPECT_EQ(c.hooks.on_entry, (std::vector<std::string>{"/bin/sh", "-c", "'echo'"}));
+  EXPECT_TRUE(c.hooks.on_failure.empty());
+  EXPECT_EQ(c.hooks.timeout_s, 2.5);
+  ExpectError(std::string(kMinimal) + "[hooks]\non_entry = \"upload.sh x\"\n",
+              "hooks.on_entry': '/etc/monomesh/upload.sh' is not an executable file");
+  ExpectError(std::string(kMinimal) + "[hooks]\non_failure = \"/etc/passwd\"\n",
+              "hooks.on_failure");
+  ExpectError(std::string(kMinimal) + "[hooks]\ntimeout_s = 0\n", "hooks.timeout_s");
+  ExpectError(std::string(kMinimal) + "[hooks]\non_entry = [\"/bin/true\"]\n",
+              "hooks.on_entry': wrong type");
 }
 
 TEST(DaemonConfig, ControlSocketGroupAndMode) {

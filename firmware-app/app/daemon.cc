@@ -25,6 +25,7 @@
 #include "app/control.h"
 #include "app/control_protocol.h"
 #include "app/gate_thread.h"
+#include "app/hooks.h"
 #include "app/pair_job.h"
 #include "base/unique_fd.h"
 #include "base/wall_clock.h"
@@ -373,7 +374,8 @@ class Daemon {
                  CaptureSessionOptions{.gate = config.gate,
                                        .timeout_s = config.keyframe_timeout_s,
                                        .max_tries = config.max_b_tries}),
-        spool_({.dir = config.spool_dir, .max_entries = config.spool_max_entries}) {}
+        spool_({.dir = config.spool_dir, .max_entries = config.spool_max_entries}),
+        hooks_(config.hooks) {}
 
   int Run();
 
@@ -393,6 +395,8 @@ class Daemon {
   void OnWatch(int fd);
   void Emit(json event);
   void EmitCameraChanges();
+  static void LogHookStart(const HookStart& start);
+  void OnHooksEnded();
   void FinishOnStop();
   void ReplyAndClose(int fd, const json& reply);
   void CloseClient(int fd);
@@ -407,6 +411,7 @@ class Daemon {
   Undistorter undistorter_;
   CaptureSession session_;
   Spool spool_;
+  HookRunner hooks_;
   UniqueFd epoll_;
   UniqueFd frame_event_;
   UniqueFd done_event_;
@@ -488,7 +493,7 @@ int Daemon::Run() {
   gate_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   sigset_t signals;
   sigemptyset(&signals);
-  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
+  for (int s : {SIGTERM, SIGINT, SIGHUP, SIGCHLD}) sigaddset(&signals, s);  // SIGCHLD: hooks.
   // Block before any thread starts, so every thread inherits the mask and signalfd sees them
   // (SIGUSR1 likewise, through its SignalTrigger).
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
@@ -576,7 +581,9 @@ int Daemon::Run() {
       if (fd == signal_fd_.get()) {
         signalfd_siginfo info{};
         while (::read(fd, &info, sizeof(info)) == sizeof(info)) {
-          if (info.ssi_signo == SIGHUP) {
+          if (info.ssi_signo == SIGCHLD) {
+            OnHooksEnded();
+          } else if (info.ssi_signo == SIGHUP) {
             spdlog::info("SIGHUP ignored (restart the service to reload the config)");
           } else {
             spdlog::info("signal {}: stopping", info.ssi_signo);
@@ -702,6 +709,7 @@ double Daemon::NowSeconds() {
 void Daemon::EndCapture(const std::string& error) {
   spdlog::error("capture {}: {}", captures_, error);
   Emit({{"event", "capture_failed"}, {"capture", captures_}, {"error", error}});
+  LogHookStart(hooks_.OnFailure(error, captures_));
   session_.Abort(error);
   last_result_ = {{"capture", captures_},
                   {"ok", false},
@@ -835,9 +843,11 @@ void Daemon::OnJobDone() {
             {"entry", o->entry},
             {"seconds", o->seconds},
             {"b_tries", session_.tries().size()}});
+      LogHookStart(hooks_.OnEntry(o->entry, o->capture_id));
     } else {
       spdlog::error("capture {}: {}", o->capture_id, o->error);
       Emit({{"event", "capture_failed"}, {"capture", o->capture_id}, {"error", o->error}});
+      LogHookStart(hooks_.OnFailure(o->error, o->capture_id));
     }
     last_result_ = {{"capture", o->capture_id}, {"ok", o->ok},
                     {"entry", o->entry},        {"error", o->error},
@@ -851,6 +861,8 @@ void Daemon::OnJobDone() {
 void Daemon::OnTimer() {
   const auto now = std::chrono::steady_clock::now();
   EmitCameraChanges();
+  hooks_.KillOverdue(now);
+  OnHooksEnded();  // SIGCHLD may have come before the hook it was for was recorded.
   if (state_ == State::kTracking &&
       session_.OnTime(NowSeconds()) == CaptureSession::Step::kFailed) {
     EndCapture(session_.failure_reason());
@@ -1061,6 +1073,35 @@ void Daemon::EmitCameraChanges() {
   if (stats.end_of_stream && !camera_ended_) {
     camera_ended_ = true;
     Emit({{"event", "camera_ended"}, {"frames", stats.frames}});
+  }
+}
+
+void Daemon::LogHookStart(const HookStart& start) {
+  if (start.message.empty()) return;  // No hook configured.
+  if (start.started) {
+    spdlog::info("{}", start.message);
+  } else {
+    spdlog::warn("{}", start.message);
+  }
+}
+
+void Daemon::OnHooksEnded() {
+  for (const HookEnd& end : hooks_.Reap()) {
+    if (end.timed_out) {
+      spdlog::warn("hook {} (pid {}) killed at its {} s limit ({})", end.name, end.pid,
+                   config_.hooks.timeout_s, end.how);
+    } else if (!end.ok) {
+      spdlog::warn("hook {} (pid {}) failed: {} after {:.2f} s", end.name, end.pid, end.how,
+                   end.seconds);
+    } else {
+      spdlog::info("hook {} (pid {}) {} after {:.2f} s", end.name, end.pid, end.how, end.seconds);
+    }
+    Emit({{"event", "hook"},
+          {"hook", end.name},
+          {"ok", end.ok},
+          {"timed_out", end.timed_out},
+          {"how", end.how},
+          {"seconds", end.seconds}});
   }
 }
 

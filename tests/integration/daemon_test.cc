@@ -529,6 +529,55 @@ TEST(Daemon, WatchStreamsTheEventsOfACaptureInOrder) {
   ExpectCompleteEntry(lines.back()["entry"].get<std::string>());
 }
 
+// [hooks]: on_entry runs with each entry's folder; one that hangs is killed at its limit and
+// logged, and the next capture goes on meanwhile; on_failure gets the reason and its exit
+// status is logged.
+TEST(Daemon, HooksRunAfterCapturesAndOneThatHangsNeverDelaysTheNext) {
+  const auto write_script = [](const fs::path& path, const std::string& body) {
+    std::ofstream(path) << "#!/bin/sh\n" << body;
+    fs::permissions(path, fs::perms::owner_all);
+  };
+  DaemonProcess daemon("hooks", "rate=realtime&loop=1",
+                       "[hooks]\non_entry = \"hook.sh\"\ntimeout_s = 1.0\n");
+  write_script(daemon.dir() / "hook.sh",
+               "echo \"$1\" >> " + (daemon.dir() / "entries.txt").string() + "\nsleep 60\n");
+  daemon.Start();
+  std::vector<std::string> entries;
+  for (int i = 0; i < 2; ++i) {
+    const json result = daemon.TriggerAndWait(120s);
+    ASSERT_TRUE(result.value("ok", false)) << result.dump() << "\n" << daemon.log();
+    entries.push_back(result["entry"].get<std::string>());
+  }
+  // Each hook hangs for 60 s: the second capture finished while the first hook still hung or
+  // had been killed, never waiting for it.
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < deadline &&
+         daemon.log().find("hook on_entry (pid") == std::string::npos) {
+    std::this_thread::sleep_for(100ms);
+  }
+  const std::string log = daemon.log();
+  EXPECT_NE(log.find("killed at its 1 s limit (killed by signal 9"), std::string::npos) << log;
+  std::string recorded = ReadAll(daemon.dir() / "entries.txt");
+  for (const std::string& entry : entries) {
+    EXPECT_NE(recorded.find(entry + "\n"), std::string::npos) << recorded;
+  }
+
+  DaemonProcess failing("hooks_failure", "rate=realtime&loop=1",
+                        "[keyframes]\ntimeout_s = 0.05\n[hooks]\non_failure = \"fail.sh\"\n");
+  write_script(failing.dir() / "fail.sh",
+               "echo \"$1\" > " + (failing.dir() / "reason.txt").string() + "\nexit 3\n");
+  failing.Start();
+  const json result = failing.TriggerAndWait(60s);
+  ASSERT_FALSE(result.value("ok", true)) << result.dump();
+  const auto failed_by = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < failed_by &&
+         failing.log().find("hook on_failure (pid") == std::string::npos) {
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_NE(failing.log().find("failed: exited 3"), std::string::npos) << failing.log();
+  EXPECT_EQ(ReadAll(failing.dir() / "reason.txt"), result["error"].get<std::string>() + "\n");
+}
+
 TEST(Daemon, OdometryStreamedOnTheControlSocketScalesTheEntry) {
   const std::string scale_keys = "[scale]\nsource = \"odometry\"\nodometry_clock = \"camera\"\n";
   DaemonProcess daemon("odom", "rate=realtime&loop=0", scale_keys);
