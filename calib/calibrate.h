@@ -13,6 +13,7 @@
 // Thread-safety: reentrant (no shared state).
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,6 +71,9 @@ struct CalibrateResult {
   /// A one-paragraph human summary.
   [[nodiscard]] std::string Summary() const;
 };
+
+/// A board's inner corners written COLSxROWS ("9x6"); nullopt for anything else.
+std::optional<cv::Size> ParseBoardSize(const std::string& text);
 
 /// Finds the inner corners of `board` in a gray or colour image (findChessboardCornersSB, then
 /// cornerSubPix with a (2w+1)^2 window when w > 0; CALIB_CB_EXHAUSTIVE retry when `exhaustive`).

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
       mm::cli::AddFeedCommand(app),
       mm::cli::AddGpioWatchCommand(app),
       mm::cli::AddCalibrateCommand(app),
+      mm::cli::AddSnapshotCommand(app),
       mm::cli::AddUndistortCommand(app),
       mm::cli::AddRenderCommand(app),
       mm::cli::AddSynthCommand(app),

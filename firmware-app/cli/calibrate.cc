@@ -67,14 +67,13 @@ struct Args {
 
 int RunCalibrate(const Args& a) {
   CalibrateOptions o;
-  int cols = 0, rows = 0;
-  char x = 0;
-  std::istringstream bs(a.board);
-  if (!(bs >> cols >> x >> rows) || (x != 'x' && x != 'X')) {
+  const std::optional<cv::Size> board = ParseBoardSize(a.board);
+  if (!board) {
     std::cerr << "monomesh calibrate: --board must be COLSxROWS (inner corners), e.g. 9x6\n";
     return 2;
   }
-  o.board = {cols, rows};
+  o.board = *board;
+  const int cols = board->width, rows = board->height;
   o.square = a.square;
   o.est_alpha = a.est_alpha;
   o.center_optim = a.center_optim != 0;

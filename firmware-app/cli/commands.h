@@ -22,6 +22,8 @@ Runner AddFeedCommand(CLI::App& app);
 Runner AddGpioWatchCommand(CLI::App& app);
 /// Adds `calibrate`: chessboard images -> Calib_Results.m, calibration.toml, report PNG.
 Runner AddCalibrateCommand(CLI::App& app);
+/// Adds `snapshot`: calibration views from the appliance's own camera.
+Runner AddSnapshotCommand(CLI::App& app);
 /// Adds `undistort`: one image through a calibration's remap tables.
 Runner AddUndistortCommand(CLI::App& app);
 /// Adds `render`: a mesh (GLB) seen from a camera -> PNG (and depth), headless EGL.
