@@ -26,26 +26,9 @@ for exe in "$checks" "$prepare" "$daemon" "$cli" "$worker"; do
 done
 
 # The kernel version of linux-headers-amd64; image and source pinned to the same package version.
-kv="$(dpkg-query -W -f='${Depends}' linux-headers-amd64 | sed -n 's/.*linux-headers-\([0-9][^ ,]*-amd64\).*/\1/p')"
-pkgver="$(dpkg-query -W -f='${Version}' "linux-headers-$kv")"
+. tests/kernel/kernel_image.sh
 headers="/usr/src/linux-headers-$kv"
 log "kernel $kv ($pkgver)"
-
-fetch() {  # fetch PACKAGE=VERSION -> unpacked into $work/<name>
-  local spec="$1" name="${1%%=*}"
-  if [ ! -f "$work/$name/.done" ]; then
-    rm -rf "$work/$name" "$work/dl-$name"
-    mkdir -p "$work/dl-$name" "$work/$name"
-    (cd "$work/dl-$name" && apt-get download -q "$spec" >/dev/null 2>&1) || {
-      apt-get update -qq && (cd "$work/dl-$name" && apt-get download -q "$spec" >/dev/null)
-    }
-    dpkg-deb -x "$work/dl-$name"/*.deb "$work/$name"
-    rm -rf "$work/dl-$name"
-    touch "$work/$name/.done"
-  fi
-}
-fetch "linux-image-${kv}-unsigned=$pkgver"
-image="$work/linux-image-${kv}-unsigned"
 fetch v4l2loopback-dkms
 fetch "linux-source-6.1=$pkgver"
 log "packages fetched"
@@ -177,14 +160,5 @@ timeout 420 qemu-system-x86_64 -accel tcg -cpu max -smp 1 -nographic -no-reboot 
   -append "console=ttyS0 quiet loglevel=3 panic=-1" > "$out" 2>&1
 qrc=$?
 set -e
-tr -d '\r' < "$out" | grep -E '^(CHECK|GUEST)' || true
-pass=$(tr -d '\r' < "$out" | grep -c '^CHECK .* PASS' || true)
-fail=$(tr -d '\r' < "$out" | grep -c '^CHECK .* FAIL' || true)
-done_line=$(tr -d '\r' < "$out" | grep -c '^GUEST done' || true)
 log "qemu exit $qrc"
-echo "kernel checks: $pass passed, $fail failed"
-if [ "$done_line" -ne 1 ] || [ "$fail" -ne 0 ] || [ "$pass" -eq 0 ]; then
-  echo "kernel: FAILED (console log: $out); last lines:" >&2
-  tail -n 30 "$out" >&2
-  exit 1
-fi
+guest_verdict kernel "$out" 1
