@@ -199,6 +199,8 @@ std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr
   const unsigned char* pos = AccessorData(model, pos_it->second, TINYGLTF_TYPE_VEC3,
                                           TINYGLTF_COMPONENT_TYPE_FLOAT, &stride, &count);
   if (pos == nullptr) return "POSITION accessor unusable";
+  // glTF 2.0 (accessor.count >= 1): a mesh has vertices, and a triangle list whole triangles.
+  if (count == 0) return "POSITION accessor has no vertices";
   for (size_t i = 0; i < count; ++i) {
     float p[3];
     std::memcpy(p, pos + i * stride, sizeof(p));
@@ -236,6 +238,10 @@ std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr
     }
   } else {
     return "indices accessor unusable (uint32 or uint16 expected)";
+  }
+  if (indices.empty() || indices.size() % 3 != 0) {
+    return "indices: " + std::to_string(indices.size()) +
+           " is not a whole number of triangles (a triangle list needs 3 per triangle)";
   }
   for (size_t i = 0; i + 2 < indices.size(); i += 3) {
     if (indices[i] >= count || indices[i + 1] >= count || indices[i + 2] >= count) {

@@ -23,11 +23,13 @@ struct GlbInfo {
       "up to scale: a monocular pair fixes no metric scale; the baseline |t| = 1 is the unit";
 };
 
-/// The GLB bytes. `texture_jpeg` is the encoded keyframe A (may be empty: untextured).
+/// The GLB bytes. `texture_jpeg` is the encoded keyframe A (may be empty: untextured). The
+/// mesh has at least one triangle (glTF accessors hold at least one element).
 std::string EncodeGlb(const Mesh& mesh, const std::string& texture_jpeg, const GlbInfo& info = {});
 
 /// Reads a GLB written by EncodeGlb (or any GLB with one triangle primitive using POSITION,
-/// TEXCOORD_0 and indices) back into camera-A coordinates. `texture_bgr` receives the decoded
+/// TEXCOORD_0 and indices, at least one vertex and a whole number of triangles) back into
+/// camera-A coordinates. `texture_bgr` receives the decoded
 /// base colour image (empty when there is none). Returns "" or what went wrong.
 [[nodiscard]] std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr);
 

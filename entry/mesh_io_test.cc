@@ -84,6 +84,36 @@ TEST(MeshIo, GlbRoundTripsGeometryUvsAndTexture) {
   EXPECT_NE(DecodeGlb("not a glb", &back, &back_texture), "");
 }
 
+// What glTF forbids and the encoder never writes is refused, not read as an empty mesh (the
+// fuzzer found a GLB of no vertices and two indices that decoded to one the encoder could not
+// write readably).
+TEST(MeshIo, GlbWithoutVerticesOrWithPartTrianglesIsRefused) {
+  Mesh mesh;
+  mesh.vertices = {{0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
+  mesh.triangles = {{0, 1, 2}, {1, 3, 2}};
+  std::string glb = EncodeGlb(mesh, "");
+  Mesh back;
+  cv::Mat texture;
+  ASSERT_EQ(DecodeGlb(glb, &back, &texture), "");
+  // The JSON chunk names the index count: 6 -> 5 keeps the byte length and leaves a part
+  // triangle; the POSITION count 4 -> 0 leaves no vertices.
+  const auto edited = [&glb](const std::string& from, const std::string& to) {
+    std::string copy = glb;
+    const size_t at = copy.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) copy.replace(at, from.size(), to);
+    return copy;
+  };
+  Mesh part;
+  EXPECT_NE(DecodeGlb(edited("\"count\":6", "\"count\":5"), &part, &texture)
+                .find("not a whole number of triangles"),
+            std::string::npos);
+  Mesh none;
+  EXPECT_NE(DecodeGlb(edited("\"count\":4", "\"count\":0"), &none, &texture)
+                .find("no vertices"),
+            std::string::npos);
+}
+
 TEST(MeshIo, PointsPlyHasOneVertexPerPointAndNoFaces) {
   const std::vector<Eigen::Vector3d> points{{0, 0, 1}, {1, 2, 3}};
   const std::vector<Eigen::Matrix<uint8_t, 3, 1>> colors{{1, 2, 3}, {4, 5, 6}};
