@@ -6,6 +6,7 @@
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <stdexcept>
 
 namespace mm {
 namespace {
@@ -185,10 +186,16 @@ std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr
                         nullptr);
   tinygltf::Model model;
   std::string err, warn;
-  if (!loader.LoadBinaryFromMemory(&model, &err, &warn,
-                                   reinterpret_cast<const unsigned char*>(bytes.data()),
-                                   static_cast<unsigned int>(bytes.size()))) {
-    return "not a readable GLB: " + err;
+  try {
+    if (!loader.LoadBinaryFromMemory(&model, &err, &warn,
+                                     reinterpret_cast<const unsigned char*>(bytes.data()),
+                                     static_cast<unsigned int>(bytes.size()))) {
+      return "not a readable GLB: " + err;
+    }
+  } catch (const std::exception& e) {
+    // tinygltf reports most faults in `err` but throws on some (std::out_of_range from a
+    // vector::at, found by glb_fuzz: a buffer of byteLength 0 read by its views).
+    return std::string("not a readable GLB: ") + e.what();
   }
   if (model.meshes.empty() || model.meshes[0].primitives.empty()) return "no mesh in the GLB";
   const tinygltf::Primitive& prim = model.meshes[0].primitives[0];

@@ -14,7 +14,8 @@ run_one() {
   local name="$1" binary="$2" seeds="$3" seconds="$4"
   local corpus="build/fuzz/corpus/$name" crashes="build/fuzz/crashes/$name"
   mkdir -p "$corpus" "$crashes"
-  if "$binary" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
+  # A fixed seed: the same mutations on the same corpus (MM_FUZZ_SEED=0 lets libFuzzer pick).
+  if "$binary" -seed="${MM_FUZZ_SEED:-1}" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
        -print_final_stats=1 -artifact_prefix="$crashes/" "$corpus" "$seeds" \
        >"build/fuzz/$name.log" 2>&1; then
     local runs
