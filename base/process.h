@@ -21,9 +21,10 @@ extern char** environ;  // NOLINT(readability-redundant-declaration): POSIX leav
 namespace mm {
 
 struct SpawnOptions {
-  std::vector<std::pair<int, int>> dup2 = {};  ///< (from, to): the child's `to` is the parent's `from`.
-  bool stdin_null = false;        ///< The child's stdin reads /dev/null.
-  bool stdout_to_stderr = false;  ///< The child's stdout is the parent's stderr (the journal).
+  /// (from, to): the child's descriptor `to` is the parent's `from`.
+  std::vector<std::pair<int, int>> dup2 = {};
+  bool stdin_null = false;            ///< The child's stdin reads /dev/null.
+  bool stdout_to_stderr = false;      ///< The child's stdout is the parent's stderr (the journal).
   std::vector<std::string> env = {};  ///< "NAME=value" added to the parent's environment.
 };
 

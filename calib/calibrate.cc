@@ -87,8 +87,8 @@ std::optional<cv::Size> ParseBoardSize(const std::string& text) {
   int cols = 0, rows = 0;
   char x = 0;
   std::istringstream in(text);
-  if (!(in >> cols >> x >> rows) || (x != 'x' && x != 'X') || cols < 2 || rows < 2 ||
-      cols > 100 || rows > 100 || in.peek() != std::char_traits<char>::eof()) {
+  if (!(in >> cols >> x >> rows) || (x != 'x' && x != 'X') || cols < 2 || rows < 2 || cols > 100 ||
+      rows > 100 || in.peek() != std::char_traits<char>::eof()) {
     return std::nullopt;
   }
   return cv::Size(cols, rows);

@@ -89,7 +89,8 @@ std::string WorkerProcess::Reap(std::chrono::milliseconds timeout) {
     }
   }
   pid_ = -1;
-  return r < 0 ? std::string("lost (waitpid: ") + strerror(errno) + ")" : DescribeWaitStatus(status);
+  return r < 0 ? std::string("lost (waitpid: ") + strerror(errno) + ")"
+               : DescribeWaitStatus(status);
 }
 
 std::string LibcameraWorkerPath() {

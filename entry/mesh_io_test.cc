@@ -109,8 +109,7 @@ TEST(MeshIo, GlbWithoutVerticesOrWithPartTrianglesIsRefused) {
                 .find("not a whole number of triangles"),
             std::string::npos);
   Mesh none;
-  EXPECT_NE(DecodeGlb(edited("\"count\":4", "\"count\":0"), &none, &texture)
-                .find("no vertices"),
+  EXPECT_NE(DecodeGlb(edited("\"count\":4", "\"count\":0"), &none, &texture).find("no vertices"),
             std::string::npos);
 }
 

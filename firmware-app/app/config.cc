@@ -279,8 +279,8 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   r.GetNumber(spool, "spool", "max_entries", {0, kMaxCount}, &c.spool_max_entries);
 
   const auto* hooks = r.Table("hooks");
-  for (auto [key, argv] : {std::pair{"on_entry", &c.hooks.on_entry},
-                           std::pair{"on_failure", &c.hooks.on_failure}}) {
+  for (auto [key, argv] :
+       {std::pair{"on_entry", &c.hooks.on_entry}, std::pair{"on_failure", &c.hooks.on_failure}}) {
     std::string command;
     r.Get(hooks, "hooks", key, &command);
     *argv = SplitHookCommand(command);
@@ -289,8 +289,9 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
     const std::filesystem::path program((*argv)[0]);
     (*argv)[0] = (program.is_absolute() ? program : (c.config_dir / program).lexically_normal());
     r.Require(::access((*argv)[0].c_str(), X_OK) == 0, hooks, "hooks", key,
-              "'" + (*argv)[0] + "' is not an executable file (a program's path, run without a "
-              "shell; the entry's folder or the reason is its last argument)");
+              "'" + (*argv)[0] +
+                  "' is not an executable file (a program's path, run without a "
+                  "shell; the entry's folder or the reason is its last argument)");
   }
   r.GetNumber(hooks, "hooks", "timeout_s", {0.1, 3600.0}, &c.hooks.timeout_s);
 

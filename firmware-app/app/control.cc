@@ -172,8 +172,7 @@ void WatchControlEvents(const std::filesystem::path& path,
   for (;;) {
     const bool whole = ReadLine(fd.get(), path, std::chrono::milliseconds(-1), &pending);
     size_t start = 0;
-    for (size_t nl = pending.find('\n'); nl != std::string::npos;
-         nl = pending.find('\n', start)) {
+    for (size_t nl = pending.find('\n'); nl != std::string::npos; nl = pending.find('\n', start)) {
       if (!on_line(pending.substr(start, nl - start))) return;
       start = nl + 1;
     }

@@ -68,7 +68,8 @@ std::string_view OdomArguments(std::string_view line) {
 }
 
 std::string UnknownControlCommandError(std::string_view request) {
-  return "unknown command '" + std::string(request) + "' (known: trigger, status, ping, odom, watch)";
+  return "unknown command '" + std::string(request) +
+         "' (known: trigger, status, ping, odom, watch)";
 }
 
 }  // namespace mm

@@ -3,8 +3,8 @@
 // pieces and end at '\n' (or where the client shuts down writing), each answered by one JSON
 // line. A connection carries one command, except that `odom` lines (a robot's odometry bridge)
 // may follow each other on one connection, and that `watch` turns the connection into a
-// subscription: the daemon writes one JSON line per event until either side closes. Pure, so the framing and the command parser are
-// unit-tested and fuzzed apart from the daemon.
+// subscription: the daemon writes one JSON line per event until either side closes. Pure, so the
+// framing and the command parser are unit-tested and fuzzed apart from the daemon.
 
 #include <cstddef>
 #include <string>

@@ -445,7 +445,7 @@ class Daemon {
   std::chrono::steady_clock::time_point last_gate_event_;
   uint64_t camera_errors_seen_ = 0;  // CaptureStats::errors at the last camera event.
   uint64_t camera_frames_seen_ = 0;
-  bool camera_failing_ = false;      // An error since the last frame.
+  bool camera_failing_ = false;  // An error since the last frame.
   bool camera_ended_ = false;
   bool stop_ = false;
   bool stopping_ = false;  // Set once the loop has ended: results end captures, start nothing.
@@ -913,8 +913,8 @@ void Daemon::OnAccept() {
       // Still full: the client idle longest makes room. A flood of idle connections cycles
       // through the slots while a client that asks is served.
       // Watchers are not idle (kMaxWatchers < kMaxClients leaves requests to choose from).
-      const auto oldest = std::min_element(
-          clients_.begin(), clients_.end(), [](const auto& a, const auto& b) {
+      const auto oldest =
+          std::min_element(clients_.begin(), clients_.end(), [](const auto& a, const auto& b) {
             return std::pair(a.second.watching, a.second.last_read) <
                    std::pair(b.second.watching, b.second.last_read);
           });

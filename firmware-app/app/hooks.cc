@@ -42,7 +42,7 @@ HookStart HookRunner::OnFailure(const std::string& reason, uint64_t capture) {
 
 HookStart HookRunner::Start(const char* name, const std::vector<std::string>& command,
                             const std::string& argument, uint64_t capture,
-                              const std::string& env_name) {
+                            const std::string& env_name) {
   if (command.empty()) return {};
   if (running_.size() >= static_cast<size_t>(options_.max_running)) {
     return {false, std::string("hook ") + name + " not run: " + std::to_string(running_.size()) +
@@ -51,11 +51,11 @@ HookStart HookRunner::Start(const char* name, const std::vector<std::string>& co
   std::vector<std::string> argv = command;
   argv.push_back(argument);
   pid_t pid = -1;
-  const SpawnOptions spawn{.stdin_null = true,
-                           .stdout_to_stderr = true,
-                           .env = {"MONOMESH_HOOK=" + std::string(name),
-                                   "MONOMESH_CAPTURE=" + std::to_string(capture),
-                                   env_name + "=" + argument}};
+  const SpawnOptions spawn{
+      .stdin_null = true,
+      .stdout_to_stderr = true,
+      .env = {"MONOMESH_HOOK=" + std::string(name), "MONOMESH_CAPTURE=" + std::to_string(capture),
+              env_name + "=" + argument}};
   if (std::string error = SpawnProcess(argv, spawn, &pid); !error.empty()) {
     return {false, std::string("hook ") + name + ": " + error};
   }
@@ -82,13 +82,12 @@ std::vector<HookEnd> HookRunner::Reap() {
       while ((r = ::waitpid(it->pid, &status, 0)) < 0 && errno == EINTR) {
       }
     }
-    ended.push_back(
-        {.name = it->name,
-         .pid = it->pid,
-         .how = r < 0 ? "lost (waitpid failed)" : DescribeWaitStatus(status),
-         .ok = r > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0,
-         .timed_out = it->killed,
-         .seconds = std::chrono::duration<double>(Clock::now() - it->started).count()});
+    ended.push_back({.name = it->name,
+                     .pid = it->pid,
+                     .how = r < 0 ? "lost (waitpid failed)" : DescribeWaitStatus(status),
+                     .ok = r > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0,
+                     .timed_out = it->killed,
+                     .seconds = std::chrono::duration<double>(Clock::now() - it->started).count()});
     it = running_.erase(it);
   }
   return ended;

@@ -17,8 +17,8 @@ namespace mm {
 struct HookOptions {
   std::vector<std::string> on_entry = {};    ///< argv; the entry's folder is appended. Empty: none.
   std::vector<std::string> on_failure = {};  ///< argv; the failure's reason is appended.
-  double timeout_s = 30.0;              ///< A hook still running then is killed (SIGKILL).
-  int max_running = 4;                  ///< Beyond this many running, a hook is skipped.
+  double timeout_s = 30.0;                   ///< A hook still running then is killed (SIGKILL).
+  int max_running = 4;                       ///< Beyond this many running, a hook is skipped.
 };
 
 /// The words of a [hooks] command: split at spaces and tabs, no quoting, no shell (a command
@@ -29,8 +29,8 @@ std::vector<std::string> SplitHookCommand(const std::string& command);
 struct HookEnd {
   std::string name;  ///< "on_entry" or "on_failure".
   pid_t pid = -1;
-  std::string how;   ///< DescribeWaitStatus: "exited 0", "killed by signal 9 (Killed)".
-  bool ok = false;   ///< Exited 0.
+  std::string how;  ///< DescribeWaitStatus: "exited 0", "killed by signal 9 (Killed)".
+  bool ok = false;  ///< Exited 0.
   bool timed_out = false;
   double seconds = 0;
 };
@@ -72,7 +72,7 @@ class HookRunner {
     bool killed = false;
   };
   HookStart Start(const char* name, const std::vector<std::string>& command,
-                    const std::string& argument, uint64_t capture, const std::string& env_name);
+                  const std::string& argument, uint64_t capture, const std::string& env_name);
 
   HookOptions options_;
   std::vector<Running> running_;

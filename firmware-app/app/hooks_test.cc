@@ -44,8 +44,8 @@ bool Gone(pid_t pid) {
 }
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("mm_hooks_" + name + "_" +
-                                                     std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm_hooks_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -83,8 +83,8 @@ TEST(HookRunner, OnEntryGetsTheEntryAsItsLastArgumentAndInItsEnvironment) {
 }
 
 TEST(HookRunner, AFailingHookReportsItsExitStatus) {
-  HookRunner runner({.on_failure = {"/bin/sh", "-c", "test \"$1\" = 'lost track' && exit 3",
-                                    "hook"}});
+  HookRunner runner(
+      {.on_failure = {"/bin/sh", "-c", "test \"$1\" = 'lost track' && exit 3", "hook"}});
   runner.OnFailure("lost track", 1);
   const std::vector<HookEnd> ended = WaitForEnds(&runner, 1);
   ASSERT_EQ(ended.size(), 1u);
@@ -96,10 +96,10 @@ TEST(HookRunner, AFailingHookReportsItsExitStatus) {
 TEST(HookRunner, AHangingHookIsKilledAtItsLimitWithWhatItStarted) {
   const fs::path dir = TempDir("hang");
   const fs::path pid_file = dir / "child.pid";
-  HookRunner runner({.on_entry = {"/bin/sh", "-c",
-                                  "sleep 60 & echo $! > " + pid_file.string() + "; sleep 60",
-                                  "hook"},
-                     .timeout_s = 0.3});
+  HookRunner runner(
+      {.on_entry = {"/bin/sh", "-c", "sleep 60 & echo $! > " + pid_file.string() + "; sleep 60",
+                    "hook"},
+       .timeout_s = 0.3});
   runner.OnEntry("/spool/e", 1);
   const std::vector<HookEnd> ended = WaitForEnds(&runner, 1);
   ASSERT_EQ(ended.size(), 1u);

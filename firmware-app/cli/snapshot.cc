@@ -55,8 +55,8 @@ int RunSnapshot(const Args& a) {
     return 1;
   }
   std::cout << "camera: " << source->Describe() << "\n";
-  const auto interval = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(a.interval_s));
+  const auto interval =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(a.interval_s));
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                            std::chrono::duration<double>(a.timeout_s));
   auto next = Clock::now();

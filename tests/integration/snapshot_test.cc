@@ -62,10 +62,10 @@ TEST(Snapshot, KeepsOnlyViewsShowingTheBoardAndCalibrateTakesThem) {
   }
   EXPECT_EQ(views, 6) << log;
 
-  const std::string calibrated = RunCommand(Monomesh() + " calibrate --images " + out.string() +
-                                                " --board 12x13 --square 30 --out " +
-                                                (camera / "calib").string(),
-                                            &status);
+  const std::string calibrated =
+      RunCommand(Monomesh() + " calibrate --images " + out.string() +
+                     " --board 12x13 --square 30 --out " + (camera / "calib").string(),
+                 &status);
   EXPECT_EQ(status, 0) << calibrated;
   EXPECT_TRUE(fs::exists(camera / "calib" / "Calib_Results.m")) << calibrated;
 
@@ -75,10 +75,10 @@ TEST(Snapshot, KeepsOnlyViewsShowingTheBoardAndCalibrateTakesThem) {
              &status);
   EXPECT_EQ(status, 0);
   EXPECT_EQ(std::distance(fs::directory_iterator(camera / "any"), fs::directory_iterator()), 3);
-  const std::string bad_board = RunCommand(Monomesh() + " snapshot --camera replay:" +
-                                               camera.string() + " --out " + out.string() +
-                                               " --board 12",
-                                           &status);
+  const std::string bad_board =
+      RunCommand(Monomesh() + " snapshot --camera replay:" + camera.string() + " --out " +
+                     out.string() + " --board 12",
+                 &status);
   EXPECT_EQ(status, 2);
   EXPECT_NE(bad_board.find("--board must be COLSxROWS"), std::string::npos) << bad_board;
   const std::string no_camera = RunCommand(
@@ -86,11 +86,10 @@ TEST(Snapshot, KeepsOnlyViewsShowingTheBoardAndCalibrateTakesThem) {
   EXPECT_EQ(status, 1);
   EXPECT_NE(no_camera.find("/nonexistent"), std::string::npos) << no_camera;
   // More views than the camera has: it says how many it got.
-  const std::string ended = RunCommand(Monomesh() + " snapshot --camera 'replay:" +
-                                           camera.string() + "?rate=max' --out " +
-                                           (camera / "more").string() +
-                                           " --count 20 --interval 0 --board 12x13",
-                                       &status);
+  const std::string ended = RunCommand(
+      Monomesh() + " snapshot --camera 'replay:" + camera.string() + "?rate=max' --out " +
+          (camera / "more").string() + " --count 20 --interval 0 --board 12x13",
+      &status);
   EXPECT_EQ(status, 1);
   EXPECT_NE(ended.find("the camera ended after 8 views"), std::string::npos) << ended;
   fs::remove_all(camera);
