@@ -76,9 +76,11 @@ function(mm_add_test folder name)
     SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}")
   if(CMAKE_CROSSCOMPILING AND CMAKE_CROSSCOMPILING_EMULATOR)
     # A test under qemu-user cannot exec an aarch64 program by itself (no binfmt_misc on the
-    # build machines): LibcameraSource starts its worker through the emulator too.
+    # build machines): LibcameraSource starts its worker through the emulator too, and tests
+    # of what starts arbitrary programs (the hooks) skip where MM_TEST_EMULATOR is set.
     list(JOIN CMAKE_CROSSCOMPILING_EMULATOR " " launcher)
-    set_tests_properties(${folder}/${name} PROPERTIES ENVIRONMENT "MM_LIBCAMERA_WORKER_LAUNCHER=${launcher}")
+    set_tests_properties(${folder}/${name} PROPERTIES ENVIRONMENT
+      "MM_LIBCAMERA_WORKER_LAUNCHER=${launcher};MM_TEST_EMULATOR=${launcher}")
   endif()
   if("unit" IN_LIST labels)
     add_dependencies(mm_unit_tests ${target})
