@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
-#include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <utility>
 #include <vector>
@@ -152,20 +151,15 @@ Eigen::Matrix4f GlProjectionFromK(const Eigen::Matrix3d& K, int width, int heigh
 }
 
 // The surfaceless EGLDisplay is one per process, shared by every Renderer and initialized by the
-// first. It is never terminated: eglTerminate would pull it from under other Renderers, and
-// Mesa's terminate unloads the driver (llvmpipe), which each entry's preview would then load
-// again, and leaves blocks allocated by the unloaded driver unreachable (LeakSanitizer reports
-// them when the daemon exits). The process's exit releases it.
-namespace {
-std::mutex display_mutex;
-}  // namespace
-
+// first (eglInitialize of an initialized display is a no-op; EGL calls are thread-safe). It is
+// never terminated: eglTerminate would pull it from under other Renderers, and Mesa's terminate
+// unloads the driver (llvmpipe), which each entry's preview would then load again, and leaves
+// blocks allocated by the unloaded driver unreachable (LeakSanitizer reports them when the
+// daemon exits). The process's exit releases it.
 struct Renderer::Impl {
   // Destroyed in reverse order: GL names (with this context made current first, in ~Impl),
   // then the context.
-  struct Display {
-    EGLDisplay handle = EGL_NO_DISPLAY;
-  } display;
+  EGLDisplay display = EGL_NO_DISPLAY;
   struct Context {
     EGLDisplay display = EGL_NO_DISPLAY;
     EGLContext handle = EGL_NO_CONTEXT;
@@ -203,8 +197,7 @@ struct Renderer::Impl {
   bool MakeCurrent() {
     if (context.handle == EGL_NO_CONTEXT) return false;
     if (eglGetCurrentContext() == context.handle) return true;
-    return eglMakeCurrent(display.handle, EGL_NO_SURFACE, EGL_NO_SURFACE, context.handle) ==
-           EGL_TRUE;
+    return eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context.handle) == EGL_TRUE;
   }
 };
 
@@ -215,19 +208,15 @@ bool Renderer::Impl::Init() {
     error = "EGL: eglGetPlatformDisplayEXT is missing (EGL_EXT_platform_base)";
     return false;
   }
-  display.handle =
-      get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-  if (display.handle == EGL_NO_DISPLAY) {
+  display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  if (display == EGL_NO_DISPLAY) {
     error = "EGL: no surfaceless display (EGL_MESA_platform_surfaceless; Mesa's libegl-mesa0)";
     return false;
   }
-  {
-    std::lock_guard<std::mutex> lock(display_mutex);
-    EGLint major = 0, minor = 0;
-    if (!eglInitialize(display.handle, &major, &minor)) {  // Idempotent when initialized.
-      error = "EGL: eglInitialize failed " + Hex(static_cast<unsigned>(eglGetError()));
-      return false;
-    }
+  EGLint major = 0, minor = 0;
+  if (!eglInitialize(display, &major, &minor)) {  // Idempotent when initialized.
+    error = "EGL: eglInitialize failed " + Hex(static_cast<unsigned>(eglGetError()));
+    return false;
   }
   if (!eglBindAPI(EGL_OPENGL_ES_API)) {
     error = "EGL: OpenGL ES API unavailable";
@@ -237,19 +226,18 @@ bool Renderer::Impl::Init() {
                                    EGL_PBUFFER_BIT, EGL_NONE};
   EGLConfig config = nullptr;
   EGLint num_configs = 0;
-  if (!eglChooseConfig(display.handle, config_attribs, &config, 1, &num_configs) ||
-      num_configs < 1) {
+  if (!eglChooseConfig(display, config_attribs, &config, 1, &num_configs) || num_configs < 1) {
     config = nullptr;  // EGL_NO_CONFIG_KHR: surfaceless contexts need no config.
   }
   const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 0,
                                     EGL_NONE};
-  context.display = display.handle;
-  context.handle = eglCreateContext(display.handle, config, EGL_NO_CONTEXT, context_attribs);
+  context.display = display;
+  context.handle = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
   if (context.handle == EGL_NO_CONTEXT) {
     error = "EGL: no OpenGL ES 3.0 context " + Hex(static_cast<unsigned>(eglGetError()));
     return false;
   }
-  if (!eglMakeCurrent(display.handle, EGL_NO_SURFACE, EGL_NO_SURFACE, context.handle)) {
+  if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context.handle)) {
     error = "EGL: surfaceless eglMakeCurrent failed (EGL_KHR_surfaceless_context) " +
             Hex(static_cast<unsigned>(eglGetError()));
     return false;

@@ -861,8 +861,7 @@ void Daemon::OnJobDone() {
 void Daemon::OnTimer() {
   const auto now = std::chrono::steady_clock::now();
   EmitCameraChanges();
-  hooks_.KillOverdue(now);
-  OnHooksEnded();  // SIGCHLD may have come before the hook it was for was recorded.
+  hooks_.KillOverdue(now);  // Their ends arrive as SIGCHLD.
   if (state_ == State::kTracking &&
       session_.OnTime(NowSeconds()) == CaptureSession::Step::kFailed) {
     EndCapture(session_.failure_reason());

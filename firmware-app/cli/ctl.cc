@@ -17,10 +17,8 @@ namespace {
 
 using json = nlohmann::json;
 
-int RunCtl(const std::string& command, std::filesystem::path socket, const std::string& config,
-           double wait_s) {
+int RunCtl(const std::string& command, const std::filesystem::path& socket, double wait_s) {
   using namespace std::chrono_literals;
-  if (!config.empty()) socket = LoadDaemonConfig(config).control_socket;
   const json reply = json::parse(SendControlCommand(socket, command, 5s));
   if (command != "trigger" || wait_s <= 0 || !reply.value("ok", false)) {
     std::cout << JsonText(reply, 2) << "\n";
@@ -55,9 +53,7 @@ int RunCtl(const std::string& command, std::filesystem::path socket, const std::
 
 // Prints the daemon's events, one JSON line each, until the daemon closes the connection or
 // an event named in `until` arrives (exit 0; a daemon that closes first exits 1).
-int RunWatch(std::filesystem::path socket, const std::string& config,
-             const std::vector<std::string>& until) {
-  if (!config.empty()) socket = LoadDaemonConfig(config).control_socket;
+int RunWatch(const std::filesystem::path& socket, const std::vector<std::string>& until) {
   bool refused = false, reached = false, first = true;
   WatchControlEvents(socket, [&](const std::string& line) {
     std::cout << line << "\n" << std::flush;
@@ -114,8 +110,11 @@ Runner AddCtlCommand(CLI::App& app) {
       std::cerr << "monomesh ctl " << command << ": takes no values\n";
       return 2;
     }
-    if (command == "watch") return RunWatch(args->socket, args->config, args->until);
-    return RunCtl(command, args->socket, args->config, args->wait_s);
+    const std::filesystem::path socket = args->config.empty()
+                                             ? std::filesystem::path(args->socket)
+                                             : LoadDaemonConfig(args->config).control_socket;
+    if (command == "watch") return RunWatch(socket, args->until);
+    return RunCtl(command, socket, args->wait_s);
   };
 }
 
