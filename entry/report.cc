@@ -1,8 +1,14 @@
 #include "entry/report.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cstdint>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <type_traits>
 
+#include "base/checked_number.h"
 #include "base/version.h"
 #include "entry/json_text.h"
 
@@ -19,10 +25,51 @@ json KeyframeJson(const KeyframeInfo& k) {
           {"source", k.source}};
 }
 
-// Sets *out from j[key] when the key is there (nlohmann throws on a type mismatch).
+// A field whose value the report's types cannot hold (its text names the field).
+struct FieldError {
+  std::string what;
+};
+
+// j as an integer of type T, or a FieldError naming `key`. nlohmann's own conversion casts a
+// floating value to the integer type unchecked (6.9e19 to int is undefined behaviour) and wraps
+// an unsigned one; CheckedNumber refuses both.
+template <typename T>
+T Integer(const json& j, const char* key) {
+  ParsedNumber parsed;
+  if (j.is_number_unsigned()) {
+    const auto u = j.get<uint64_t>();
+    parsed = u <= static_cast<uint64_t>(std::numeric_limits<int64_t>::max())
+                 ? ParsedNumber(static_cast<int64_t>(u))
+                 : ParsedNumber(static_cast<double>(u));
+  } else if (j.is_number_integer()) {
+    parsed = j.get<int64_t>();
+  } else if (j.is_number_float()) {
+    parsed = j.get<double>();
+  } else {
+    throw FieldError{std::string(key) + ": expected an integer, got " + j.type_name()};
+  }
+  // The largest a field takes is what both T and int64_t hold (CheckedNumber compares in int64).
+  const NumberRange<T> range{
+      std::numeric_limits<T>::lowest(),
+      static_cast<T>(
+          std::min<uint64_t>(std::numeric_limits<T>::max(), std::numeric_limits<int64_t>::max()))};
+  std::string problem;
+  const std::optional<T> value = CheckedNumber<T>(parsed, range, &problem);
+  if (!value) throw FieldError{std::string(key) + ": " + problem};
+  return *value;
+}
+
+// Sets *out from j[key] when the key is there (nlohmann throws on a type mismatch; an integer
+// field goes through Integer).
 template <typename T>
 void Read(const json& j, const char* key, T* out) {
-  if (const auto it = j.find(key); it != j.end()) it->get_to(*out);
+  const auto it = j.find(key);
+  if (it == j.end()) return;
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+    *out = Integer<T>(*it, key);
+  } else {
+    it->get_to(*out);
+  }
 }
 
 // The object j[key], or an empty object when absent.
@@ -312,8 +359,8 @@ std::string FromJson(const json& j, EntryReport* out) {
     ReadKeyframe(Object(k, "b"), &r.keyframe_b);
     const json& cam = Object(j, "camera");
     if (const auto it = cam.find("image_size"); it != cam.end()) {
-      r.camera.width = it->at(0).get<int>();
-      r.camera.height = it->at(1).get<int>();
+      r.camera.width = Integer<int>(it->at(0), "image_size");
+      r.camera.height = Integer<int>(it->at(1), "image_size");
     }
     ReadVector(cam, "fc", &r.camera.fc);
     ReadVector(cam, "cc", &r.camera.cc);
@@ -393,6 +440,8 @@ std::string FromJson(const json& j, EntryReport* out) {
     }
   } catch (const json::exception& e) {
     return e.what();
+  } catch (const FieldError& e) {
+    return e.what;
   }
   *out = std::move(r);
   return {};

@@ -184,6 +184,26 @@ TEST(EntryReport, ReadsAPartialReportAndRejectsBadOnes) {
   EXPECT_NE(FromJson(json::array(), &r), "");
 }
 
+// An integer field takes an integer its type holds, or a float with an integral value; what
+// would wrap or overflow on the cast is refused with the field's name.
+TEST(EntryReport, RefusesIntegersTheFieldCannotHold) {
+  EntryReport r;
+  ASSERT_EQ(FromJson(json{{"counts", {{"features_a", 1200.0}}}}, &r), "");
+  EXPECT_EQ(r.counts.features_a, 1200);
+  for (const json& bad : {json(6.93015e19), json(4294967297LL), json(1.5), json("7")}) {
+    const std::string error = FromJson(json{{"counts", {{"features_a", bad}}}}, &r);
+    EXPECT_NE(error.find("features_a"), std::string::npos) << bad.dump() << ": " << error;
+  }
+  const std::string error =
+      FromJson(json{{"camera", {{"image_size", json::array({640, 1e30})}}}}, &r);
+  EXPECT_NE(error.find("image_size"), std::string::npos) << error;
+  for (const json& bad : {json(18446744073709551615ULL), json(-1)}) {
+    const std::string sequence_error =
+        FromJson(json{{"keyframes", {{"a", {{"sequence", bad}}}}}}, &r);
+    EXPECT_NE(sequence_error.find("sequence"), std::string::npos) << sequence_error;
+  }
+}
+
 // Every key report.json has, by its path (keyframes.b as keyframes.a, array elements as []),
 // into `out`.
 void KeyPaths(const json& j, const std::string& prefix, std::vector<std::string>* out) {
