@@ -157,10 +157,14 @@ std::string Spool::Recover(int* removed_leftovers, bool* path_unusable) {
   return removed > 0 ? FsyncDir(options_.dir) : std::string();
 }
 
-std::vector<fs::path> Spool::Entries() const {
+std::vector<fs::path> Spool::Entries() const { return ListSpoolEntries(options_.dir); }
+
+bool IsSpoolEntryName(std::string_view name) { return IsEntryName(name); }
+
+std::vector<fs::path> ListSpoolEntries(const fs::path& dir) {
   std::vector<fs::path> entries;
   std::error_code ec;
-  for (const auto& item : ListFolder(options_.dir, ec)) {
+  for (const auto& item : ListFolder(dir, ec)) {
     if (IsRealDirectory(item) && IsEntryName(item.path().filename().string())) {
       entries.push_back(item.path());
     }

@@ -18,6 +18,7 @@
 #include <ctime>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mm {
@@ -68,5 +69,12 @@ class Spool {
   SpoolOptions options_;
   uint64_t next_sequence_ = 1;
 };
+
+/// Whether `name` is an entry's name (`YYYYMMDDThhmmssZ-NNNNNN`, what Commit makes).
+[[nodiscard]] bool IsSpoolEntryName(std::string_view name);
+
+/// The committed entries in the spool folder `dir` (real folders with an entry's name), oldest
+/// first; none when the folder cannot be read. For readers of a spool: nothing is changed.
+[[nodiscard]] std::vector<std::filesystem::path> ListSpoolEntries(const std::filesystem::path& dir);
 
 }  // namespace mm

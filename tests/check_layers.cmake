@@ -5,7 +5,7 @@
 #     no evaluation code (those live in entry/ and eval/).
 # The link-level rule is mm_forbid_link in the top CMakeLists.txt.
 cmake_policy(SET CMP0007 NEW)
-set(all_layers "base/|scale/|dataset/|calib/|spool/|recon/|render/|session/|entry/|eval/|synth/|capture/|app/|cli/")
+set(all_layers "base/|scale/|dataset/|calib/|spool/|recon/|render/|session/|entry/|eval/|synth/|capture/|web/|app/|cli/")
 # folder : the folders it may include (besides itself)
 set(rules
   "base:"
@@ -19,7 +19,8 @@ set(rules
   "entry:base/|scale/|calib/|recon/|render/|spool/|session/"
   "eval:base/|scale/|calib/|dataset/|recon/|render/|entry/|session/"
   "synth:base/|calib/|recon/|render/"
-  "capture:base/|dataset/")
+  "capture:base/|dataset/"
+  "web:base/|spool/|entry/")
 set(failures "")
 foreach(rule IN LISTS rules)
   string(REPLACE ":" ";" parts "${rule}")

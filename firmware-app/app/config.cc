@@ -1,9 +1,11 @@
 #include "app/config.h"
 
+#include <arpa/inet.h>
 #include <sys/un.h>
 #include <toml++/toml.h>
 #include <unistd.h>
 
+#include <charconv>
 #include <set>
 #include <type_traits>
 
@@ -118,6 +120,24 @@ class Reader {
 // far below INT_MAX.
 constexpr int kMaxCount = 1'000'000;
 
+// "HOST:PORT" with HOST a dotted IPv4 address (no name lookup: the service binds before the
+// network may be up) and PORT 1 to 65535.
+bool ParseListenAddress(const std::string& text, std::string* host, int* port) {
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos) return false;
+  const std::string h = text.substr(0, colon);
+  in_addr addr{};
+  if (::inet_pton(AF_INET, h.c_str(), &addr) != 1) return false;
+  int p = 0;
+  const char* begin = text.data() + colon + 1;
+  const char* end = text.data() + text.size();
+  const auto [stop, ec] = std::from_chars(begin, end, p);
+  if (begin == end || ec != std::errc() || stop != end || p < 1 || p > 65535) return false;
+  *host = h;
+  *port = p;
+  return true;
+}
+
 }  // namespace
 
 const std::vector<std::string>& DaemonConfigKeys() {
@@ -158,6 +178,10 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "hooks.on_entry",
                                               "hooks.on_failure",
                                               "hooks.timeout_s",
+                                              "web.listen",
+                                              "web.token_file",
+                                              "web.static_dir",
+                                              "web.three_dir",
                                               "log.level"};
   return kKeys;
 }
@@ -294,6 +318,15 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
                   "shell; the entry's folder or the reason is its last argument)");
   }
   r.GetNumber(hooks, "hooks", "timeout_s", {0.1, 3600.0}, &c.hooks.timeout_s);
+
+  const auto* web = r.Table("web");
+  std::string listen = c.web.listen_host + ":" + std::to_string(c.web.listen_port);
+  r.Get(web, "web", "listen", &listen);
+  r.Require(ParseListenAddress(listen, &c.web.listen_host, &c.web.listen_port), web, "web",
+            "listen", "'" + listen + "' is not HOST:PORT (an IPv4 address, port 1 to 65535)");
+  r.GetPath(web, "web", "token_file", c.config_dir, &c.web.token_file);
+  r.GetPath(web, "web", "static_dir", c.config_dir, &c.web.static_dir);
+  r.GetPath(web, "web", "three_dir", c.config_dir, &c.web.three_dir);
 
   const auto* log = r.Table("log");
   r.Get(log, "log", "level", &c.log_level);

@@ -66,6 +66,17 @@ struct DaemonConfig {
   /// spaces, no shell), timeout_s.
   HookOptions hooks;
 
+  /// [web]: monomesh-web, the operator's page (docs/web.md); the daemon only checks these.
+  struct Web {
+    std::string listen_host = "127.0.0.1";  ///< [web] listen "HOST:PORT"
+    int listen_port = 8080;
+    /// [web] token_file: the bearer token every POST must carry.
+    std::filesystem::path token_file = "/etc/monomesh/web-token";
+    std::filesystem::path static_dir = "/usr/share/monomesh/web";     ///< [web] static_dir
+    std::filesystem::path three_dir = "/usr/share/javascript/three";  ///< [web] three_dir
+  };
+  Web web;
+
   std::string log_level = "info";  ///< [log] level: trace|debug|info|warn|error
 };
 

@@ -77,6 +77,10 @@ std::map<std::string, Value> CodeDefaults() {
       {"hooks.on_entry", std::string()},  // No hook.
       {"hooks.on_failure", std::string()},
       {"hooks.timeout_s", d.hooks.timeout_s},
+      {"web.listen", d.web.listen_host + ":" + std::to_string(d.web.listen_port)},
+      {"web.token_file", d.web.token_file.string()},
+      {"web.static_dir", d.web.static_dir.string()},
+      {"web.three_dir", d.web.three_dir.string()},
       {"log.level", d.log_level},
   };
 }
@@ -278,6 +282,21 @@ TEST(DaemonConfig, HooksAreProgramsWithArguments) {
   ExpectError(std::string(kMinimal) + "[hooks]\ntimeout_s = 0\n", "hooks.timeout_s");
   ExpectError(std::string(kMinimal) + "[hooks]\non_entry = [\"/bin/true\"]\n",
               "hooks.on_entry': wrong type");
+}
+
+// [web] listen is an IPv4 address and a port (the service binds it before any name service);
+// paths are relative to the config's folder.
+TEST(DaemonConfig, WebListenIsAnAddressAndAPort) {
+  const DaemonConfig c = ParseDaemonConfig(
+      std::string(kMinimal) + "[web]\nlisten = \"0.0.0.0:8443\"\ntoken_file = \"token\"\n",
+      "/etc/monomesh/d.toml");
+  EXPECT_EQ(c.web.listen_host, "0.0.0.0");
+  EXPECT_EQ(c.web.listen_port, 8443);
+  EXPECT_EQ(c.web.token_file, "/etc/monomesh/token");
+  for (const char* bad : {"localhost:8080", "127.0.0.1", "127.0.0.1:0", "127.0.0.1:65536",
+                          "127.0.0.1:80x", ":8080", "127.0.0.1:"}) {
+    ExpectError(std::string(kMinimal) + "[web]\nlisten = \"" + bad + "\"\n", "web.listen");
+  }
 }
 
 TEST(DaemonConfig, ControlSocketGroupAndMode) {

@@ -166,11 +166,22 @@ std::string SendControlCommand(const std::filesystem::path& path, const std::str
 }
 
 void WatchControlEvents(const std::filesystem::path& path,
-                        const std::function<bool(const std::string& line)>& on_line) {
+                        const std::function<bool(const std::string& line)>& on_line,
+                        const std::function<bool()>& keep_watching) {
   const UniqueFd fd = ConnectAndSend(path, "watch");
   std::string pending;
   for (;;) {
-    const bool whole = ReadLine(fd.get(), path, std::chrono::milliseconds(-1), &pending);
+    bool whole = false;
+    if (keep_watching) {
+      try {
+        whole = ReadLine(fd.get(), path, std::chrono::milliseconds(250), &pending);
+      } catch (const ControlTimeout&) {
+        if (!keep_watching()) return;
+        continue;  // ReadLine keeps what it read so far in `pending`.
+      }
+    } else {
+      whole = ReadLine(fd.get(), path, std::chrono::milliseconds(-1), &pending);
+    }
     size_t start = 0;
     for (size_t nl = pending.find('\n'); nl != std::string::npos; nl = pending.find('\n', start)) {
       if (!on_line(pending.substr(start, nl - start))) return;

@@ -66,10 +66,12 @@ std::string SendControlCommand(const std::filesystem::path& path, const std::str
                                std::chrono::milliseconds timeout);
 
 /// Subscribes to the daemon's events (`watch`): `on_line` gets the subscription's reply, then
-/// one JSON line per event, until it returns false or the daemon closes the connection.
+/// one JSON line per event, until it returns false or the daemon closes the connection; with
+/// `keep_watching`, also once it returns false (asked at least every 250 ms).
 /// \throws ControlError naming the socket when no daemon answers, or when the daemon sends
 /// more than 1 MiB without an end of line.
 void WatchControlEvents(const std::filesystem::path& path,
-                        const std::function<bool(const std::string& line)>& on_line);
+                        const std::function<bool(const std::string& line)>& on_line,
+                        const std::function<bool()>& keep_watching = {});
 
 }  // namespace mm

@@ -1,0 +1,68 @@
+#pragma once
+// WebServer: monomesh-web's HTTP side (cpp-httplib): the page files, three.js under /three/,
+// and the JSON API of docs/web.md over the spool (read only) and the daemon (DaemonLink).
+// GET never changes state; POST /api/trigger needs the bearer token. Requests are bounded:
+// body size, header count, URI length (httplib's 8 KiB), read and keep-alive timeouts, the
+// number of worker threads and of event-stream clients.
+//
+// Thread-safety: Listen blocks on its thread; Stop may be called from any thread.
+
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "web/daemon_link.h"
+#include "web/event_hub.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace mm {
+
+struct WebServerOptions {
+  std::string host = "127.0.0.1";
+  int port = 8080;  ///< 0: any free port (port() says which).
+  std::filesystem::path spool_dir;
+  std::filesystem::path static_dir;  ///< index.html, viewer.html, app.js, ...
+  std::filesystem::path three_dir;   ///< Debian's libjs-three, served under /three/.
+  std::string token;                 ///< The bearer token POSTs must carry (not empty).
+  size_t threads = 32;               ///< HTTP worker threads.
+  size_t max_body_bytes = 64 * 1024;
+  size_t max_headers = 100;
+  int read_timeout_s = 5;
+  EventHubOptions events;
+  [[nodiscard]] std::string Check() const;
+};
+
+class WebServer {
+ public:
+  WebServer(WebServerOptions options, DaemonLink& link);
+  ~WebServer();
+  WebServer(const WebServer&) = delete;
+  WebServer& operator=(const WebServer&) = delete;
+
+  /// Binds the address; "" or the error (naming the address).
+  [[nodiscard]] std::string Bind();
+  /// The port bound (after Bind).
+  [[nodiscard]] int port() const { return port_; }
+  /// Serves until Stop (after Bind).
+  void Listen();
+  /// Ends event streams and stops serving (idempotent).
+  void Stop();
+
+ private:
+  void Routes();
+
+  WebServerOptions options_;
+  DaemonLink& link_;
+  EventHub hub_;
+  std::unique_ptr<httplib::Server> server_;
+  int port_ = 0;
+};
+
+/// Whether `header` is "Bearer TOKEN" with this token (compared in constant time).
+[[nodiscard]] bool BearerTokenMatches(const std::string& header, const std::string& token);
+
+}  // namespace mm
