@@ -4,4 +4,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh default
+scripts/install-deps.sh browser
 ctest --preset default -j"$(nproc)"

@@ -18,6 +18,8 @@ finish() {
   done
   echo "GUEST journal of monomeshd (last 40 lines):"
   journalctl -u monomeshd --no-pager -o cat | tail -n 40 | sed 's/^/GUEST   /'
+  echo "GUEST journal of monomesh-web (last 20 lines):"
+  journalctl -u monomesh-web --no-pager -o cat | tail -n 20 | sed 's/^/GUEST   /'
   echo "GUEST done"
   systemctl poweroff --no-block
   exit 0
@@ -79,7 +81,48 @@ check writes_only_its_state "$([ -z "$stray" ]; echo $?)" "files of user monomes
 errors=$(journalctl -u monomeshd -p err --no-pager -o cat | head -5)
 check no_errors_logged "$([ -z "$errors" ]; echo $?)" "${errors:-journal has no error of monomeshd}"
 
-# 4. Stopping is clean: the unit stops within its timeout and leaves no entry half-written.
+# 4. The web page's unit (monomesh-web.service, enabled as the README says): its own user,
+# its sandbox, the API on 127.0.0.1:8080, captures only with the token the package made.
+web=inactive
+for _ in $(seq 1 60); do
+  web=$(systemctl is-active monomesh-web.service)
+  [ "$web" = active ] && break
+  sleep 1
+done
+check web_unit_active "$([ "$web" = active ]; echo $?)" "monomesh-web.service is $web"
+web_pid=$(systemctl show -p MainPID --value monomesh-web.service)
+web_user=$(ps -o user= -p "$web_pid" | tr -d ' ')
+check web_runs_as_its_user "$([ "$web_user" = monomesh-web ]; echo $?)" "main pid $web_pid runs as '$web_user'"
+web_exposure=$(systemd-analyze security monomesh-web.service 2>/dev/null | sed -n 's/.*Overall exposure level for monomesh-web.service: \([0-9.]*\).*/\1/p')
+check web_exposure "$(awk -v e="${web_exposure:-99}" 'BEGIN { exit !(e <= 2.5) }'; echo $?)" \
+  "systemd-analyze security on the booted unit: ${web_exposure:-unknown}"
+token_mode=$(stat -c '%U:%G %a' /etc/monomesh/web-token 2>&1)
+check web_token_made "$([ "$token_mode" = "root:monomesh 640" ]; echo $?)" "/etc/monomesh/web-token: $token_mode"
+api=http://127.0.0.1:8080
+web_status=$(curl -s -m 5 "$api/api/status")
+check web_status "$(echo "$web_status" | grep -q '"state":"idle"'; echo $?)" "GET /api/status: $(echo "$web_status" | head -c 80)"
+listed=$(curl -s -m 5 "$api/api/entries" | grep -o '"name":"[^"]*"' | head -1)
+check web_lists_entry "$([ "$listed" = "\"name\":\"$(basename "$entry")\"" ]; echo $?)" "GET /api/entries: newest $listed"
+glb=$(curl -s -m 10 -o /dev/null -w '%{http_code} %{size_download}' "$api/api/entries/$(basename "$entry")/mesh.glb")
+check web_serves_mesh "$([ "${glb%% *}" = 200 ] && [ "${glb##* }" -gt 1000 ]; echo $?)" "GET mesh.glb: $glb"
+three=$(curl -s -m 10 -o /dev/null -w '%{http_code}' "$api/three/build/three.module.js")
+check web_serves_three "$([ "$three" = 200 ]; echo $?)" "GET /three/build/three.module.js: $three (libjs-three)"
+refused=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -d '' "$api/api/trigger")
+check web_post_needs_token "$([ "$refused" = 401 ]; echo $?)" "POST /api/trigger without the token: $refused"
+before=$(find "$spool" -maxdepth 1 -name '2*' | wc -l)
+pressed=$(runuser -u operator -- sh -c "curl -s -m 10 -d '' -H \"Authorization: Bearer \$(cat /etc/monomesh/web-token)\" $api/api/trigger")
+after=$before
+for _ in $(seq 1 600); do
+  after=$(find "$spool" -maxdepth 1 -name '2*' | wc -l)
+  [ "$after" -gt "$before" ] && break
+  sleep 1
+done
+check web_capture_with_token "$([ "$after" -gt "$before" ]; echo $?)" \
+  "POST /api/trigger with the token (read by operator): $pressed; entries $before -> $after"
+web_stray=$(find / -xdev -user monomesh-web -not -path '/proc/*' 2>/dev/null | head -5)
+check web_writes_nothing "$([ -z "$web_stray" ]; echo $?)" "files of user monomesh-web: ${web_stray:-none}"
+
+# 5. Stopping is clean: the unit stops within its timeout and leaves no entry half-written.
 systemctl stop monomeshd.service
 result=$(systemctl show -p Result --value monomeshd.service)
 tmp=$(find "$spool" -maxdepth 1 -name '.tmp-*' | head -1)

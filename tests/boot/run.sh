@@ -37,12 +37,12 @@ log "package $(basename "$deb")"
 root="$boot/root"
 rm -rf "$root"
 mmdebstrap --quiet --variant=minbase --mode=root \
-  --include=systemd,systemd-sysv,dbus,procps,findutils${MM_BOOT_DEBUG:+,gdb} --include="$deb" \
+  --include=systemd,systemd-sysv,dbus,procps,findutils,curl${MM_BOOT_DEBUG:+,gdb} --include="$deb" \
   --hook-dir=/usr/share/mmdebstrap/hooks/file-mirror-automount \
   --dpkgopt='path-exclude=/usr/share/man/*' --dpkgopt='path-exclude=/usr/share/locale/*' \
   --dpkgopt='path-exclude=/usr/share/doc/*' --dpkgopt='path-include=/usr/share/doc/monomesh/*' \
   --customize-hook='chroot "$1" useradd --create-home --no-user-group --groups monomesh operator' \
-  --customize-hook='chroot "$1" systemctl enable monomeshd.service' \
+  --customize-hook='chroot "$1" systemctl enable monomeshd.service monomesh-web.service' \
   --customize-hook='chroot "$1" systemctl mask serial-getty@ttyS0.service getty@tty1.service systemd-timesyncd.service apt-daily.timer apt-daily-upgrade.timer' \
   bookworm "$root" >/dev/null
 log "root file system $(du -sh "$root" | cut -f1)"
@@ -85,4 +85,4 @@ timeout 1200 qemu-system-x86_64 -accel tcg -cpu "${MM_BOOT_CPU:-Nehalem}" -smp 1
 qrc=$?
 set -e
 log "qemu exit $qrc"
-guest_verdict boot "$out" 14
+guest_verdict boot "$out" 25
