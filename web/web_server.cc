@@ -122,8 +122,9 @@ void WebServer::Routes() {
   s.set_payload_max_length(options_.max_body_bytes);
   s.set_read_timeout(options_.read_timeout_s, 0);
   s.set_write_timeout(options_.read_timeout_s, 0);
-  s.set_keep_alive_timeout(2);
-  s.set_keep_alive_max_count(20);
+  // An idle keep-alive connection holds a worker: short, and a few requests each.
+  s.set_keep_alive_timeout(1);
+  s.set_keep_alive_max_count(5);
   s.set_default_headers({{"X-Content-Type-Options", "nosniff"},
                          {"X-Frame-Options", "DENY"},
                          {"Referrer-Policy", "no-referrer"}});

@@ -28,7 +28,9 @@ struct WebServerOptions {
   std::filesystem::path static_dir;  ///< index.html, viewer.html, app.js, ...
   std::filesystem::path three_dir;   ///< Debian's libjs-three, served under /three/.
   std::string token;                 ///< The bearer token POSTs must carry (not empty).
-  size_t threads = 32;               ///< HTTP worker threads.
+  /// HTTP worker threads: each connection holds one while it is open (cpp-httplib), so this
+  /// bounds the slow clients that can be served at once.
+  size_t threads = 64;
   size_t max_body_bytes = 64 * 1024;
   size_t max_headers = 100;
   int read_timeout_s = 5;
