@@ -37,7 +37,6 @@ import shutil
 import subprocess
 import sys
 import time
-import traceback
 
 SKIP = 77  # ctest's SKIP_RETURN_CODE: the browser or its Python bindings are not installed
 
@@ -53,7 +52,7 @@ except ImportError as missing:
     print(f"SKIP: {missing} (scripts/install-deps.sh browser)")
     sys.exit(SKIP)
 
-from webtest_support import (Failed, Processes, free_port, get_json, http, wait_for,
+from webtest_support import (Failed, Processes, free_port, get_json, http, run_check, wait_for,
                              write_config)
 
 CAPTURE_WAIT_S = 120
@@ -120,14 +119,7 @@ class Test:
         self.entry = None
 
     def check(self, name, function):
-        try:
-            detail = function()
-            print(f"CHECK ok {name}" + (f": {detail}" if detail else ""), flush=True)
-        except Exception as e:  # a check's failure of any kind is reported, the others go on
-            self.failures.append(name)
-            print(f"CHECK FAILED {name}: {e}", flush=True)
-            if not isinstance(e, (Failed, TimeoutException)):
-                traceback.print_exc(file=sys.stdout)
+        run_check(self.failures, name, function, expected=(Failed, TimeoutException))
 
     def screenshot(self, element, file_name):
         path = os.path.join(self.out, file_name)

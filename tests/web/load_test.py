@@ -19,11 +19,23 @@ import sys
 import threading
 import time
 
-from webtest_support import Failed, Processes, free_port, http, wait_for, write_config
+from webtest_support import (Failed, Processes, free_port, http, run_check, wait_for,
+                             write_config)
 
 STATUS_DEADLINE_S = 1.0   # docs/web.md: the service stays responsive
 READ_TIMEOUT_S = 5        # WebServerOptions::read_timeout_s
 TOKEN = "load-test-token-0123456789"
+
+
+def read_until_closed(s):
+    """Everything the server sends until it closes (or the socket's timeout)."""
+    reply = b""
+    try:
+        while chunk := s.recv(65536):
+            reply += chunk
+    except OSError:
+        pass
+    return reply.decode("latin-1")
 
 
 def raw(port, data, timeout=10.0):
@@ -33,13 +45,7 @@ def raw(port, data, timeout=10.0):
             s.sendall(data)
         except OSError:
             pass  # the server may close before it has read everything (a refusal)
-        reply = b""
-        try:
-            while chunk := s.recv(65536):
-                reply += chunk
-        except OSError:
-            pass
-    return reply.decode("latin-1")
+        return read_until_closed(s)
 
 
 def status_code(reply):
@@ -58,12 +64,7 @@ class LoadTest:
         self.failures = []
 
     def check(self, name, function):
-        try:
-            detail = function()
-            print(f"CHECK ok {name}" + (f": {detail}" if detail else ""), flush=True)
-        except Exception as e:  # every check runs; each failure is reported
-            self.failures.append(name)
-            print(f"CHECK FAILED {name}: {e}", flush=True)
+        run_check(self.failures, name, function)
 
     def setup(self):
         config, self.socket = write_config(self.args, self.out, self.port, TOKEN)
@@ -134,14 +135,9 @@ class LoadTest:
                     sent += len(chunk)
             except OSError:
                 pass  # closed early: refused before the whole body came
-            reply = b""
-            try:
-                while data := s.recv(65536):
-                    reply += data
-            except OSError:
-                pass
+            reply = read_until_closed(s)
         took = time.monotonic() - start
-        code = status_code(reply.decode("latin-1"))
+        code = status_code(reply)
         if code != 413:
             raise Failed(f"64 MB body: {code} after {took:.1f} s: {reply[:120]!r}")
         captures = http(self.base + "/api/status")[2].decode()

@@ -8,6 +8,7 @@ import socket
 import subprocess
 import sys
 import time
+import traceback
 import urllib.error
 import urllib.request
 
@@ -138,3 +139,16 @@ three_dir = {q(THREE_DIR)}
     return config, socket_path
 
 
+
+
+def run_check(failures, name, function, expected=(Failed,)):
+    """Runs one check: prints `CHECK ok NAME: detail` or `CHECK FAILED NAME: why` (with a
+    traceback for an exception other than `expected`) and appends a failure's name."""
+    try:
+        detail = function()
+        print(f"CHECK ok {name}" + (f": {detail}" if detail else ""), flush=True)
+    except Exception as e:  # a check's failure of any kind is reported, the others go on
+        failures.append(name)
+        print(f"CHECK FAILED {name}: {e}", flush=True)
+        if not isinstance(e, expected):
+            traceback.print_exc(file=sys.stdout)
