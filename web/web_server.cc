@@ -175,11 +175,13 @@ void WebServer::Routes() {
     const std::optional<fs::path> entry = FindEntry(options_.spool_dir, req.matches[1].str());
     if (!entry) return SendError(res, 404, "no such entry");
     const std::string name = req.matches[2].str();
-    const bool download = req.get_param_value("download") == "1";
-    if (download) {
+    // Named after the entry and the file as the listings have them, set once found: the
+    // request's own bytes never reach a header.
+    const auto attachment = [&](const std::string& file) {
+      if (req.get_param_value("download") != "1") return;
       res.set_header("Content-Disposition",
-                     "attachment; filename=\"" + entry->filename().string() + "-" + name + "\"");
-    }
+                     "attachment; filename=\"" + entry->filename().string() + "-" + file + "\"");
+    };
     if (name == "obj.zip") {
       std::string error;
       const std::optional<std::string> zip = ZipObjFiles(*entry, &error);
@@ -187,6 +189,7 @@ void WebServer::Routes() {
         spdlog::warn("web: {}", error);
         return SendError(res, 404, "the entry has no complete OBJ mesh");
       }
+      attachment("obj.zip");
       res.set_content(*zip, "application/zip");
       return;
     }
@@ -197,6 +200,7 @@ void WebServer::Routes() {
     if (!fd.valid() || ::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode)) {
       return SendError(res, 404, "no such file in the entry");
     }
+    attachment(file->filename().string());
     SendFile(res, std::move(fd), static_cast<size_t>(st.st_size), ContentTypeOf(name));
   });
   s.Post("/api/trigger", [this](const httplib::Request& req, httplib::Response& res) {

@@ -226,6 +226,23 @@ TEST_F(WebServerTest, RefusesPathTraversalInEveryParameter) {
   }
 }
 
+// The request's own bytes never reach a response header (a name with CR LF would split it).
+TEST_F(WebServerTest, ARequestedNameNeverReachesAHeader) {
+  const std::string reply = RawRequest(
+      server_->port(),
+      "GET /api/entries/20261202T100500Z-000002/x%0d%0aSet-Cookie:%20a=b?download=1 HTTP/1.1\r\n"
+      "Host: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(StatusOf(reply), 404) << reply;
+  EXPECT_EQ(reply.find("Set-Cookie"), std::string::npos) << reply;
+  EXPECT_EQ(reply.find("Content-Disposition"), std::string::npos) << reply;
+  const std::string missing =
+      RawRequest(server_->port(),
+                 "GET /api/entries/20261202T100500Z-000002/no-such-file?download=1 HTTP/1.1\r\n"
+                 "Host: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(StatusOf(missing), 404) << missing;
+  EXPECT_EQ(missing.find("no-such-file"), std::string::npos) << missing;
+}
+
 TEST_F(WebServerTest, TriggerIsAPostWithTheToken) {
   auto res = client_->Post("/api/trigger");
   ASSERT_TRUE(res);
