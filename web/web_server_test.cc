@@ -18,6 +18,7 @@
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 #include <thread>
 
 #include "tests/support/temp_dir.h"
@@ -125,6 +126,9 @@ int StatusOf(const std::string& reply) {
 class WebServerTest : public ::testing::Test {
  protected:
   void SetUp() override {
+    // spdlog's registry is made on first use: here, on this thread, before the server's threads
+    // (monomesh-web's main sets up logging first the same way).
+    spdlog::set_level(spdlog::level::warn);
     root_ = test::FreshTempDir("web_server");
     spool_ = root_ / "spool";
     static_dir_ = root_ / "static";
