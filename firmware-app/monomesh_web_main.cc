@@ -46,14 +46,7 @@ int main(int argc, char** argv) {
 
   // Exit codes as monomeshd's (docs/exit_codes.md): 78 config, 69 address unavailable.
   mm::DaemonConfig config;
-  try {
-    config = mm::LoadDaemonConfig(config_path);
-  } catch (const std::exception& e) {
-    mm::SetupLogging("info");
-    spdlog::critical("config: {}", e.what());
-    return 78;
-  }
-  mm::SetupLogging(config.log_level);
+  if (const int code = mm::LoadConfigAndSetupLogging(config_path, &config); code != 0) return code;
   std::string error;
   const std::string token = ReadToken(config.web.token_file, &error);
   if (token.empty()) {

@@ -2,7 +2,6 @@
 // the config, run the daemon (firmware-app/app/daemon.h).
 
 #include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
 
 #include "app/config.h"
 #include "app/daemon.h"
@@ -18,17 +17,6 @@ int main(int argc, char** argv) {
 
   // Exit codes: docs/exit_codes.md.
   mm::DaemonConfig config;
-  try {
-    config = mm::LoadDaemonConfig(config_path);
-  } catch (const mm::ConfigError& e) {
-    mm::SetupLogging("info");
-    spdlog::critical("config: {}", e.what());
-    return 78;  // EX_CONFIG: systemd does not restart on it (RestartPreventExitStatus=78).
-  } catch (const std::exception& e) {
-    mm::SetupLogging("info");
-    spdlog::critical("internal error reading {}: {}", config_path, e.what());
-    return 70;  // EX_SOFTWARE
-  }
-  mm::SetupLogging(config.log_level);
+  if (const int code = mm::LoadConfigAndSetupLogging(config_path, &config); code != 0) return code;
   return mm::RunDaemon(config);
 }

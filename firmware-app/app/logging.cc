@@ -1,5 +1,7 @@
 #include "app/logging.h"
 
+#include "app/config.h"
+
 #include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -41,6 +43,22 @@ void SetupLogging(const std::string& level) {
   }
   spdlog::set_formatter(std::move(formatter));
   spdlog::flush_on(spdlog::level::info);
+}
+
+int LoadConfigAndSetupLogging(const std::string& path, DaemonConfig* config) {
+  try {
+    *config = LoadDaemonConfig(path);
+  } catch (const ConfigError& e) {
+    SetupLogging("info");
+    spdlog::critical("config: {}", e.what());
+    return 78;  // EX_CONFIG: systemd does not restart on it (RestartPreventExitStatus=78).
+  } catch (const std::exception& e) {
+    SetupLogging("info");
+    spdlog::critical("internal error reading {}: {}", path, e.what());
+    return 70;  // EX_SOFTWARE
+  }
+  SetupLogging(config->log_level);
+  return 0;
 }
 
 }  // namespace mm
