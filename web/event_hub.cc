@@ -101,6 +101,10 @@ std::string EventHub::EventMessage(const std::string& line) {
   return message;
 }
 
+std::string EventHub::StatusMessage(const std::string& status_json) {
+  return "event: status\ndata: " + status_json + "\n\n";
+}
+
 void EventHub::Relay() {
   bool announced_gone = false;
   for (;;) {
@@ -123,7 +127,7 @@ void EventHub::Relay() {
               announced_gone = false;
               spdlog::info("events: subscribed to the daemon");
               if (reply.is_object() && reply.contains("status")) {
-                Publish("event: status\ndata: " + reply["status"].dump() + "\n\n");
+                Publish(StatusMessage(reply["status"].dump()));
               }
               return;
             }
@@ -144,7 +148,7 @@ void EventHub::Relay() {
     }
     if (!announced_gone) {
       announced_gone = true;
-      Publish("event: daemon\ndata: {\"connected\":false}\n\n");
+      Publish(kDaemonGoneMessage);
     }
     std::unique_lock lock(mutex_);
     stop_cv_.wait_for(lock, options_.retry, [this] { return stopping_; });

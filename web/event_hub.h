@@ -72,6 +72,10 @@ class EventHub {
 
   /// The SSE message for one of the daemon's event lines, or "" when it is not an event.
   static std::string EventMessage(const std::string& line);
+  /// The SSE message of the daemon's status (one line of JSON).
+  static std::string StatusMessage(const std::string& status_json);
+  /// The SSE message saying the daemon went away.
+  static constexpr const char* kDaemonGoneMessage = "event: daemon\ndata: {\"connected\":false}\n\n";
 
  private:
   void Relay();

@@ -220,14 +220,14 @@ void WebServer::Routes() {
     // The state now, then every event from here on (the hub queues them meanwhile).
     std::string first;
     try {
-      first = "event: status\ndata: " + link_.Request("status") + "\n\n";
+      first = EventHub::StatusMessage(link_.Request("status"));
     } catch (const std::exception&) {
-      first = "event: daemon\ndata: {\"connected\":false}\n\n";
+      first = EventHub::kDaemonGoneMessage;
     }
     res.set_header("Cache-Control", "no-store");
     res.set_chunked_content_provider(
         "text/event-stream",
-        [client, first, sent = false, quiet = std::chrono::steady_clock::duration{}](
+        [client, first, sent = false, last_write = std::chrono::steady_clock::now()](
             size_t, httplib::DataSink& sink) mutable {
           if (!sent) {
             sent = true;
@@ -239,13 +239,13 @@ void WebServer::Routes() {
             sink.done();
             return true;
           }
+          const auto now = std::chrono::steady_clock::now();
           if (message) {
-            quiet = {};
+            last_write = now;
             return sink.write(message->data(), message->size());
           }
-          quiet += 1000ms;
-          if (quiet >= kHeartbeat) {
-            quiet = {};
+          if (now - last_write >= kHeartbeat) {
+            last_write = now;
             static constexpr char kComment[] = ": keep-alive\n\n";
             return sink.write(kComment, sizeof(kComment) - 1);
           }

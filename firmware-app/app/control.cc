@@ -171,16 +171,14 @@ void WatchControlEvents(const std::filesystem::path& path,
   const UniqueFd fd = ConnectAndSend(path, "watch");
   std::string pending;
   for (;;) {
+    // Without keep_watching the read waits without limit, and times out never.
     bool whole = false;
-    if (keep_watching) {
-      try {
-        whole = ReadLine(fd.get(), path, std::chrono::milliseconds(250), &pending);
-      } catch (const ControlTimeout&) {
-        if (!keep_watching()) return;
-        continue;  // ReadLine keeps what it read so far in `pending`.
-      }
-    } else {
-      whole = ReadLine(fd.get(), path, std::chrono::milliseconds(-1), &pending);
+    try {
+      whole = ReadLine(fd.get(), path, std::chrono::milliseconds(keep_watching ? 250 : -1),
+                       &pending);
+    } catch (const ControlTimeout&) {
+      if (!keep_watching()) return;
+      continue;  // ReadLine keeps what it read so far in `pending`.
     }
     size_t start = 0;
     for (size_t nl = pending.find('\n'); nl != std::string::npos; nl = pending.find('\n', start)) {
