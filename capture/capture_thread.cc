@@ -59,6 +59,7 @@ void CaptureThread::Run() {
       latest_ = std::move(frame);
       latest_taken_ = false;
       ++stats_.frames;
+      rate_.Add(FrameRateMeter::Clock::now());
     }
     cv_.notify_all();
     if (callbacks_.on_frame) callbacks_.on_frame();
@@ -86,7 +87,9 @@ FramePtr CaptureThread::WaitNewer(int64_t after_sequence, std::chrono::milliseco
 
 CaptureStats CaptureThread::stats() {
   std::lock_guard lock(mutex_);
-  return stats_;
+  CaptureStats stats = stats_;
+  stats.frame_rate_hz = rate_.RateHz(FrameRateMeter::Clock::now());
+  return stats;
 }
 
 }  // namespace mm

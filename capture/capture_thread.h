@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "capture/frame.h"
+#include "capture/frame_rate.h"
 
 namespace mm {
 
@@ -23,6 +24,7 @@ struct CaptureStats {
   uint64_t errors = 0;      ///< Read errors (each also logged through the error callback).
   bool end_of_stream = false;
   std::string last_error;
+  double frame_rate_hz = 0.0;  ///< Frames published per second, lately (FrameRateMeter).
 };
 
 class CaptureThread {
@@ -65,6 +67,7 @@ class CaptureThread {
   FramePtr latest_;          // Guarded by mutex_.
   bool latest_taken_ = true;  // Guarded by mutex_.
   CaptureStats stats_;       // Guarded by mutex_.
+  FrameRateMeter rate_;      // Guarded by mutex_.
 };
 
 }  // namespace mm

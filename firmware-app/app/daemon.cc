@@ -1149,6 +1149,7 @@ json Daemon::Status() {
           {"camera",
            {{"source", capture_->Describe()},
             {"frames", stats.frames},
+            {"frame_rate_hz", stats.frame_rate_hz},
             {"dropped", stats.dropped},
             {"errors", stats.errors},
             {"end_of_stream", stats.end_of_stream},

@@ -206,7 +206,7 @@ class Test:
             lambda d: d.find_element(By.ID, "state").text in ("idle", "tracking",
                                                               "reconstructing")
             and d.find_element(By.ID, "state").text)
-        # The frame rate needs two polls of the status (2 s apart).
+        # The daemon's measured frame rate (camera.frame_rate_hz), shown from the first status.
         fps = WebDriverWait(self.driver, 15).until(
             lambda d: re.fullmatch(r"\d+(\.\d+)?", d.find_element(By.ID, "camera-fps").text)
             and float(d.find_element(By.ID, "camera-fps").text))

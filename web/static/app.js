@@ -71,9 +71,12 @@ function showCamera(camera) {
   $("camera-dropped").textContent = camera.dropped ?? "–";
   $("camera-errors").textContent = camera.errors ?? "–";
   $("camera-last-error").textContent = camera.last_error ? `last error: ${camera.last_error}` : "";
-  // Frame rate: the frame counter's growth between two polls.
+  // Frame rate: the daemon's own measure (camera.frame_rate_hz); a daemon without it, from
+  // the frame counter's growth between two polls.
   const now = performance.now();
-  if (lastFrames && camera.frames >= lastFrames.frames && now > lastFrames.t) {
+  if (typeof camera.frame_rate_hz === "number") {
+    $("camera-fps").textContent = camera.frame_rate_hz.toFixed(1);
+  } else if (lastFrames && camera.frames >= lastFrames.frames && now > lastFrames.t) {
     const fps = (camera.frames - lastFrames.frames) / ((now - lastFrames.t) / 1000);
     $("camera-fps").textContent = fps.toFixed(1);
   }
