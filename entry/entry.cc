@@ -65,8 +65,11 @@ EncodedEntry EncodeEntry(const PairReconstruction& r, const cv::Mat& image_a,
     std::string preview_error = renderer.error();
     cv::Mat preview;
     if (renderer.ok()) {
+      Eigen::Isometry3d cam_b_from_cam_a = Eigen::Isometry3d::Identity();
+      cam_b_from_cam_a.linear() = r.geometry.rotation;
+      cam_b_from_cam_a.translation() = r.geometry.translation;
       preview = RenderPreview(renderer, r.mesh, image_a, camera.K(), image_a.cols, image_a.rows,
-                              &preview_error);
+                              &preview_error, &cam_b_from_cam_a);
     }
     std::vector<uchar> png;
     if (!preview.empty() && cv::imencode(".png", preview, png)) {

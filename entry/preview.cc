@@ -3,39 +3,182 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "base/stats.h"
 
 namespace mm {
+namespace {
 
-RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height) {
+// Draws the segment p-q (world points) as seen by `view`, clipped to its near plane.
+void DrawSegment(const RenderCamera& view, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+                 const cv::Scalar& color, int thickness, cv::Mat* image) {
+  Eigen::Vector3d a = view.cam_from_world * p;
+  Eigen::Vector3d b = view.cam_from_world * q;
+  const double near = view.near_plane;
+  if (a.z() < near && b.z() < near) return;
+  if (a.z() < near) a = b + (a - b) * (b.z() - near) / (b.z() - a.z());
+  if (b.z() < near) b = a + (b - a) * (a.z() - near) / (a.z() - b.z());
+  const Eigen::Vector3d ua = view.K * a;
+  const Eigen::Vector3d ub = view.K * b;
+  // Endpoints far outside the image are clipped in floating point before cv::line's ints.
+  cv::Point2d pa(ua.x() / ua.z(), ua.y() / ua.z());
+  cv::Point2d pb(ub.x() / ub.z(), ub.y() / ub.z());
+  const double limit = 4.0 * std::max(view.width, view.height);
+  const auto inside = [&](const cv::Point2d& pt) {
+    return std::abs(pt.x) < limit && std::abs(pt.y) < limit;
+  };
+  if (!inside(pa) || !inside(pb)) {
+    // Shorten towards the inner end (or the midpoint) until both are within the limit.
+    for (int i = 0; i < 40 && !(inside(pa) && inside(pb)); ++i) {
+      if (!inside(pa)) pa = 0.5 * (pa + pb);
+      if (!inside(pb)) pb = 0.5 * (pa + pb);
+    }
+    if (!inside(pa) || !inside(pb)) return;
+  }
+  cv::line(*image, cv::Point(cvRound(pa.x), cvRound(pa.y)), cv::Point(cvRound(pb.x), cvRound(pb.y)),
+           color, thickness, cv::LINE_AA);
+}
+
+// A camera as a pyramid: its centre and its image's corners at `depth` in front of it.
+void DrawFrustum(const RenderCamera& view, const Eigen::Matrix3d& K, int width, int height,
+                 const Eigen::Isometry3d& cam_from_world, double depth, const cv::Scalar& color,
+                 cv::Mat* image) {
+  const Eigen::Isometry3d world_from_cam = cam_from_world.inverse();
+  const Eigen::Matrix3d K_inv = K.inverse();
+  const Eigen::Vector3d centre = world_from_cam.translation();
+  std::vector<Eigen::Vector3d> corners;
+  for (const auto& [u, v] : {std::pair{0.0, 0.0}, std::pair{1.0 * width, 0.0},
+                             std::pair{1.0 * width, 1.0 * height}, std::pair{0.0, 1.0 * height}}) {
+    const Eigen::Vector3d ray = K_inv * Eigen::Vector3d(u, v, 1.0);
+    corners.push_back(world_from_cam * (ray * depth));
+  }
+  for (size_t i = 0; i < 4; ++i) {
+    DrawSegment(view, centre, corners[i], color, 2, image);
+    DrawSegment(view, corners[i], corners[(i + 1) % 4], color, 2, image);
+  }
+  // The image's top edge marked by a small triangle above it (which way is up).
+  const Eigen::Vector3d top_mid = 0.5 * (corners[0] + corners[1]);
+  const Eigen::Vector3d up = 0.25 * (corners[0] - corners[3]);
+  DrawSegment(view, corners[0] + 0.3 * (corners[1] - corners[0]), top_mid + up, color, 2, image);
+  DrawSegment(view, corners[1] + 0.3 * (corners[0] - corners[1]), top_mid + up, color, 2, image);
+}
+
+// A round grid spacing (1, 2 or 5 times a power of ten) giving about `lines` lines over `span`.
+double GridStep(double span, double lines) {
+  const double raw = span / lines;
+  const double decade = std::pow(10.0, std::floor(std::log10(raw)));
+  for (const double m : {1.0, 2.0, 5.0}) {
+    if (m * decade >= raw) return m * decade;
+  }
+  return 10.0 * decade;
+}
+
+}  // namespace
+
+void DrawPreviewCues(const Mesh& mesh, const Eigen::Matrix3d& K, const RenderCamera& view,
+                     const cv::Mat& mesh_mask, const Eigen::Isometry3d* cam_b_from_cam_a,
+                     cv::Mat* image) {
+  if (mesh.vertices.empty()) return;
+  std::vector<double> xs, ys, zs;
+  for (const Eigen::Vector3f& v : mesh.vertices) {
+    xs.push_back(v.x());
+    ys.push_back(v.y());
+    zs.push_back(v.z());
+  }
+  const double x_lo = QuantileOf(xs, 0.03), x_hi = QuantileOf(xs, 0.97);
+  const double ground_y = QuantileOf(ys, 0.97);
+  const double z_hi = QuantileOf(zs, 0.97);
+  const double median_depth = QuantileOf(std::move(zs), 0.5);
+  // The grid: from camera A to the far side of the mesh, as wide as the mesh, under it.
+  if (z_hi > 0 && x_hi > x_lo) {
+    const double step = GridStep(std::max(x_hi - x_lo, z_hi), 10.0);
+    cv::Mat grid = cv::Mat::zeros(image->size(), image->type());
+    const double x0 = std::floor(x_lo / step) * step, x1 = std::ceil(x_hi / step) * step;
+    const double z1 = std::ceil(z_hi / step) * step;
+    for (double x = x0; x <= x1 + 1e-9 * step; x += step) {
+      DrawSegment(view, {x, ground_y, 0.0}, {x, ground_y, z1}, kPreviewGridColor, 1, &grid);
+    }
+    for (double z = 0.0; z <= z1 + 1e-9 * step; z += step) {
+      DrawSegment(view, {x0, ground_y, z}, {x1, ground_y, z}, kPreviewGridColor, 1, &grid);
+    }
+    cv::Mat grid_mask;
+    cv::cvtColor(grid, grid_mask, cv::COLOR_BGR2GRAY);
+    grid.copyTo(*image, (grid_mask > 0) & (mesh_mask == 0));
+  }
+  // Frusta a tenth of the scene's median depth deep (at most half the baseline, so A's and
+  // B's do not overlap).
+  double depth = 0.1 * median_depth;
+  if (cam_b_from_cam_a != nullptr) {
+    depth = std::min(depth, 0.5 * cam_b_from_cam_a->translation().norm());
+  }
+  if (!(depth > 0)) return;
+  DrawFrustum(view, K, view.width, view.height, Eigen::Isometry3d::Identity(), depth,
+              kPreviewCameraAColor, image);
+  if (cam_b_from_cam_a != nullptr) {
+    DrawFrustum(view, K, view.width, view.height, *cam_b_from_cam_a, depth, kPreviewCameraBColor,
+                image);
+  }
+}
+
+RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height,
+                           const Eigen::Isometry3d* cam_b_from_cam_a) {
   RenderCamera cam;
   cam.K = K;
   cam.width = width;
   cam.height = height;
-  // Median point of the mesh (per axis, the lower median): robust to a few far vertices.
+  // Median point of the mesh (per axis, the lower median) and its 3-97 % box: robust to a few
+  // far vertices.
   Eigen::Vector3d centre(0, 0, 1);
+  Eigen::Vector3d lo = centre, hi = centre;
   if (!mesh.vertices.empty()) {
     for (int k = 0; k < 3; ++k) {
       std::vector<double> c;
       for (const Eigen::Vector3f& v : mesh.vertices) c.push_back(v[k]);
+      lo[k] = QuantileOf(c, 0.1);
+      hi[k] = QuantileOf(c, 0.9);
       centre[k] = QuantileOf(std::move(c), 0.5);
     }
   }
-  // Camera A's centre swung 40 degrees up about the centre (A's x axis; A's "up" is -y), and
-  // 30 % further away so the whole mesh stays in view.
-  const Eigen::Vector3d from_centre = -centre * 1.3;
-  const Eigen::Vector3d eye =
-      centre + Eigen::AngleAxisd(40.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()) * from_centre;
-  const Eigen::Vector3d z = (centre - eye).normalized();
+  // What must be in view: the mesh's box and the cameras' centres.
+  std::vector<Eigen::Vector3d> keep{Eigen::Vector3d::Zero()};
+  for (int corner = 0; corner < 8; ++corner) {
+    keep.emplace_back((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
+                      (corner & 4) ? hi.z() : lo.z());
+  }
+  if (cam_b_from_cam_a != nullptr) keep.push_back(cam_b_from_cam_a->inverse().translation());
+  // Looking at the point between camera A and the mesh's median, from A's side swung 40
+  // degrees up about A's x axis (A's "up" is -y), as far back as it takes to see all of them.
+  const Eigen::Vector3d target = 0.6 * centre;
+  const Eigen::Vector3d back =
+      Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()) * -centre.normalized();
+  const Eigen::Vector3d z = -back;
   const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();  // y = down.
   const Eigen::Vector3d y = z.cross(x);
   Eigen::Matrix3d world_from_cam;
   world_from_cam << x, y, z;
-  cam.cam_from_world.linear() = world_from_cam.transpose();
-  cam.cam_from_world.translation() = -world_from_cam.transpose() * eye;
-  cam.far_plane = 10.0 * (eye - centre).norm() + 1.0;
+  const auto place = [&](double distance) {
+    const Eigen::Vector3d eye = target + distance * back;
+    cam.cam_from_world.linear() = world_from_cam.transpose();
+    cam.cam_from_world.translation() = -world_from_cam.transpose() * eye;
+  };
+  const auto all_in_view = [&] {
+    for (const Eigen::Vector3d& p : keep) {
+      const Eigen::Vector3d c = cam.cam_from_world * p;
+      if (c.z() <= 0) return false;
+      const Eigen::Vector3d u = K * c;
+      if (u.x() < 0.05 * width * u.z() || u.x() > 0.95 * width * u.z() ||
+          u.y() < 0.05 * height * u.z() || u.y() > 0.95 * height * u.z()) {
+        return false;
+      }
+    }
+    return true;
+  };
+  double distance = 0.5 * centre.norm();
+  place(distance);
+  for (int i = 0; i < 30 && !all_in_view(); ++i) place(distance *= 1.15);
+  cam.far_plane = 10.0 * (distance + (hi - lo).norm()) + 1.0;
   cam.near_plane = cam.far_plane * 1e-4;
   return cam;
 }
@@ -66,14 +209,15 @@ Mesh ShadedByNormals(const Mesh& mesh, const RenderCamera& camera) {
 }
 
 cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& texture_bgr,
-                      const Eigen::Matrix3d& K, int width, int height, std::string* error) {
+                      const Eigen::Matrix3d& K, int width, int height, std::string* error,
+                      const Eigen::Isometry3d* cam_b_from_cam_a) {
   RenderCamera a;
   a.K = K;
   a.width = width;
   a.height = height;
   a.far_plane = FarPlaneFor(mesh, a.cam_from_world);
   a.near_plane = a.far_plane * 1e-4;
-  const RenderCamera oblique_camera = ObliqueCamera(mesh, K, width, height);
+  const RenderCamera oblique_camera = ObliqueCamera(mesh, K, width, height, cam_b_from_cam_a);
   const RenderResult from_a = renderer.Render(mesh, texture_bgr, a);
   const RenderResult oblique = renderer.Render(mesh, texture_bgr, oblique_camera);
   const RenderResult shape =
@@ -84,8 +228,12 @@ cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& textu
       return {};
     }
   }
+  cv::Mat oblique_rgb = oblique.rgb.clone();
+  cv::Mat shape_rgb = shape.rgb.clone();
+  DrawPreviewCues(mesh, K, oblique_camera, oblique.mask, cam_b_from_cam_a, &oblique_rgb);
+  DrawPreviewCues(mesh, K, oblique_camera, shape.mask, cam_b_from_cam_a, &shape_rgb);
   cv::Mat out;
-  cv::hconcat(std::vector<cv::Mat>{from_a.rgb, oblique.rgb, shape.rgb}, out);
+  cv::hconcat(std::vector<cv::Mat>{from_a.rgb, oblique_rgb, shape_rgb}, out);
   return out;
 }
 

@@ -177,13 +177,51 @@ TEST_F(RendererTest, PreviewHasBothViews) {
   EXPECT_GT(oblique, kW * kH / 10);
   EXPECT_LT(oblique, cv::countNonZero(gray.colRange(0, kW)));
   // The shaded view covers the same pixels as the textured oblique one, in one flat grey (a
-  // plane: one normal), not the texture's pattern.
+  // plane: one normal), not the texture's pattern; the cues (coloured, never grey) aside.
   const cv::Mat shaded = gray.colRange(2 * kW, 3 * kW);
   EXPECT_NEAR(cv::countNonZero(shaded), oblique, oblique / 20);
+  std::vector<cv::Mat> bgr;
+  cv::split(preview.colRange(2 * kW, 3 * kW), bgr);
+  cv::Mat grey_pixels = (bgr[0] == bgr[1]) & (bgr[1] == bgr[2]) & (shaded > 0);
+  cv::erode(grey_pixels, grey_pixels, cv::Mat());  // The interior: edges blend with black.
   cv::Scalar mean, stddev;
-  cv::meanStdDev(shaded, mean, stddev, shaded > 0);
+  cv::meanStdDev(shaded, mean, stddev, grey_pixels);
   EXPECT_GT(mean[0], 40);
   EXPECT_LT(stddev[0], 3.0);
+}
+
+// Pixels of `image` within a few levels of `color`.
+int PixelsOf(const cv::Mat& image, const cv::Scalar& color) {
+  cv::Mat near;
+  cv::inRange(image, color - cv::Scalar::all(8), color + cv::Scalar::all(8), near);
+  return cv::countNonZero(near);
+}
+
+// The oblique views draw camera A's and B's frusta and the ground grid (only beside the mesh,
+// never over it); without B, only A's frustum.
+TEST_F(RendererTest, PreviewDrawsBothCamerasAndAGroundGrid) {
+  ASSERT_TRUE(renderer_->ok()) << renderer_->error();
+  const Eigen::Matrix3d K = TestK();
+  const Mesh mesh = Quad(K, 2.0, 10, 10, 149, 109);
+  Eigen::Isometry3d cam_b_from_cam_a = Eigen::Isometry3d::Identity();
+  cam_b_from_cam_a.translation() = Eigen::Vector3d(-0.4, 0.0, 0.0);  // B 0.4 to the right.
+  std::string error;
+  const cv::Mat preview =
+      RenderPreview(*renderer_, mesh, Texture(), K, kW, kH, &error, &cam_b_from_cam_a);
+  ASSERT_FALSE(preview.empty()) << error;
+  for (const int panel : {1, 2}) {
+    const cv::Mat view = preview.colRange(panel * kW, (panel + 1) * kW);
+    EXPECT_GT(PixelsOf(view, kPreviewCameraAColor), 30) << "panel " << panel;
+    EXPECT_GT(PixelsOf(view, kPreviewCameraBColor), 30) << "panel " << panel;
+    EXPECT_GT(PixelsOf(view, kPreviewGridColor), 30) << "panel " << panel;
+  }
+  // Camera A's panel has no cues.
+  const cv::Mat from_a = preview.colRange(0, kW);
+  EXPECT_EQ(PixelsOf(from_a, kPreviewCameraAColor) + PixelsOf(from_a, kPreviewCameraBColor), 0);
+  const cv::Mat only_a = RenderPreview(*renderer_, mesh, Texture(), K, kW, kH, &error);
+  ASSERT_FALSE(only_a.empty()) << error;
+  EXPECT_GT(PixelsOf(only_a.colRange(kW, 2 * kW), kPreviewCameraAColor), 30);
+  EXPECT_EQ(PixelsOf(only_a.colRange(kW, 2 * kW), kPreviewCameraBColor), 0);
 }
 
 // A mesh uploaded once and drawn from many cameras (synthetic sequences): each draw equals a
