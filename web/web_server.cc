@@ -12,6 +12,7 @@
 
 #include "base/text_file.h"
 #include "base/unique_fd.h"
+#include "web/bounded_server.h"
 #include "web/entry_index.h"
 
 namespace mm {
@@ -98,6 +99,10 @@ std::string WebServerOptions::Check() const {
   if (spool_dir.empty()) return "spool_dir: empty";
   if (token.empty()) return "token: empty (POSTs could not be authorised)";
   if (threads < 4) return "threads: at least 4";
+  if (read_timeout_s < 1) return "read_timeout_s: at least 1";
+  if (request_deadline_s < read_timeout_s) {
+    return "request_deadline_s: at least read_timeout_s (" + std::to_string(read_timeout_s) + ")";
+  }
   if (events.max_clients + 2 > threads) {
     return "events.max_clients: must leave at least 2 of the " + std::to_string(threads) +
            " threads to other requests";
@@ -109,7 +114,13 @@ WebServer::WebServer(WebServerOptions options, DaemonLink& link)
     : options_(std::move(options)),
       link_(link),
       hub_(link_, options_.events),
-      server_(std::make_unique<httplib::Server>()) {
+      server_(std::make_unique<BoundedServer>(BoundedServerOptions{
+          .request_deadline = std::chrono::seconds(options_.request_deadline_s),
+          .read_timeout = std::chrono::seconds(options_.read_timeout_s),
+          .write_timeout = std::chrono::seconds(options_.read_timeout_s),
+          // An idle keep-alive connection holds a worker: short, and a few requests each.
+          .keep_alive_timeout = std::chrono::seconds(1),
+          .keep_alive_max_count = 5})) {
   Routes();
 }
 
@@ -120,11 +131,6 @@ void WebServer::Routes() {
   const size_t threads = options_.threads;
   s.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   s.set_payload_max_length(options_.max_body_bytes);
-  s.set_read_timeout(options_.read_timeout_s, 0);
-  s.set_write_timeout(options_.read_timeout_s, 0);
-  // An idle keep-alive connection holds a worker: short, and a few requests each.
-  s.set_keep_alive_timeout(1);
-  s.set_keep_alive_max_count(5);
   s.set_default_headers({{"X-Content-Type-Options", "nosniff"},
                          {"X-Frame-Options", "DENY"},
                          {"Referrer-Policy", "no-referrer"}});
@@ -269,6 +275,9 @@ std::string WebServer::Bind() {
       return address + ": cannot bind: " + std::strerror(errno);
     }
     port_ = options_.port;
+  }
+  if (!server_->ApplyListenBacklog()) {
+    return address + ": cannot listen: " + std::strerror(errno);
   }
   hub_.Start();
   return {};

@@ -2,8 +2,9 @@
 // WebServer: monomesh-web's HTTP side (cpp-httplib): the page files, three.js under /three/,
 // and the JSON API of docs/web.md over the spool (read only) and the daemon (DaemonLink).
 // GET never changes state; POST /api/trigger needs the bearer token. Requests are bounded:
-// body size, header count, URI length (httplib's 8 KiB), read and keep-alive timeouts, the
-// number of worker threads and of event-stream clients.
+// body size, header count, URI length (httplib's 8 KiB), a deadline for each request to
+// arrive whole (BoundedServer), read, write and keep-alive timeouts, the number of worker
+// threads and of event-stream clients.
 //
 // Thread-safety: Listen blocks on its thread; Stop may be called from any thread.
 
@@ -21,6 +22,8 @@ class Server;
 
 namespace mm {
 
+class BoundedServer;
+
 struct WebServerOptions {
   std::string host = "127.0.0.1";
   int port = 8080;  ///< 0: any free port (port() says which).
@@ -33,7 +36,8 @@ struct WebServerOptions {
   size_t threads = 64;
   size_t max_body_bytes = 64 * 1024;
   size_t max_headers = 100;
-  int read_timeout_s = 5;
+  int read_timeout_s = 5;       ///< Per read and per write.
+  int request_deadline_s = 10;  ///< A request's line, headers and body arrive within it.
   EventHubOptions events;
   [[nodiscard]] std::string Check() const;
 };
@@ -60,7 +64,7 @@ class WebServer {
   WebServerOptions options_;
   DaemonLink& link_;
   EventHub hub_;
-  std::unique_ptr<httplib::Server> server_;
+  std::unique_ptr<BoundedServer> server_;
   int port_ = 0;
 };
 

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -147,12 +148,14 @@ class WebServerTest : public ::testing::Test {
     options.static_dir = static_dir_;
     options.token = "s3cret-token";
     options.events.retry = 100ms;
+    Tune(options);
     server_ = std::make_unique<WebServer>(options, daemon_);
     ASSERT_EQ(server_->Bind(), "");
     thread_ = std::thread([this] { server_->Listen(); });
     client_ = std::make_unique<httplib::Client>("127.0.0.1", server_->port());
     client_->set_read_timeout(5, 0);
   }
+  virtual void Tune(WebServerOptions& /*options*/) {}
   void TearDown() override {
     server_->Stop();
     thread_.join();
@@ -291,6 +294,44 @@ TEST_F(WebServerTest, BoundsTheRequest) {
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 413);
   EXPECT_TRUE(daemon_.requests().empty());
+}
+
+class WebServerDeadlineTest : public WebServerTest {
+ protected:
+  void Tune(WebServerOptions& options) override {
+    options.read_timeout_s = 1;
+    options.request_deadline_s = 2;
+  }
+};
+
+TEST_F(WebServerDeadlineTest, ClosesARequestThatDripsPastItsDeadline) {
+  // A header byte every 200 ms: each read is well within the 1 s read timeout, but the request
+  // never ends. Without the deadline it would hold a worker for as long as it dripped.
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(server_->port()));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)), 0);
+  const std::string head = "GET /api/entries HTTP/1.1\r\nHost: x\r\nX-Drip: ";
+  ASSERT_EQ(::send(fd, head.data(), head.size(), MSG_NOSIGNAL), static_cast<ssize_t>(head.size()));
+  const auto start = std::chrono::steady_clock::now();
+  bool closed = false;
+  while (!closed && std::chrono::steady_clock::now() - start < 6s) {
+    closed = ::send(fd, "a", 1, MSG_NOSIGNAL) != 1;
+    pollfd p{fd, POLLIN, 0};
+    char buf[512];
+    if (!closed && ::poll(&p, 1, 200) > 0) closed = ::recv(fd, buf, sizeof(buf), 0) <= 0;
+  }
+  const double held_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ::close(fd);
+  EXPECT_TRUE(closed) << "still open after " << held_s << " s";
+  EXPECT_GT(held_s, 1.8);  // Not before the 2 s deadline ...
+  EXPECT_LT(held_s, 3.5);  // ... and soon after it.
+  const auto res = client_->Get("/api/entries");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
 }
 
 TEST_F(WebServerTest, EventStreamRelaysTheDaemonsEvents) {

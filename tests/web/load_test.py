@@ -7,6 +7,8 @@ Checks (one `CHECK ok|FAILED NAME: detail` line each; exit 1 on a failure):
   big_body       a 64 MB request body: refused (413) without the service holding it
   many_headers   10,000 header fields: refused (431)
   stalled        50 clients that send half a request and stop: closed within the read timeout
+  drip           30 clients that send a header byte every second, never finishing: each closed
+                 by the request deadline, status answering meanwhile
   flood          200 concurrent clients and 50 slow clients (a byte every 2 s, never finishing)
                  at once: every fast request served, GET /api/status answers within 1 s
                  throughout, and a capture pressed during the flood completes its entry
@@ -24,6 +26,7 @@ from webtest_support import (Failed, Processes, free_port, http, run_check, wait
 
 STATUS_DEADLINE_S = 1.0   # docs/web.md: the service stays responsive
 READ_TIMEOUT_S = 5        # WebServerOptions::read_timeout_s
+REQUEST_DEADLINE_S = 10   # WebServerOptions::request_deadline_s
 TOKEN = "load-test-token-0123456789"
 
 
@@ -179,6 +182,52 @@ class LoadTest:
         return (f"all 50 closed by the server within {worst:.1f} s; status meanwhile "
                 f"{latency * 1000:.0f} ms")
 
+    def drip(self):
+        held = []  # per client: from its connection to the server closing it
+        lock = threading.Lock()
+
+        def drip_client():  # a byte a second, well within the read timeout, never finishing
+            connected = None
+            try:
+                with socket.create_connection(("127.0.0.1", self.port), timeout=30) as s:
+                    connected = time.monotonic()
+                    s.sendall(b"GET /api/entries HTTP/1.1\r\nHost: x\r\nX-Drip: ")
+                    while time.monotonic() - connected < REQUEST_DEADLINE_S + 10:
+                        s.sendall(b"a")
+                        s.settimeout(1.0)
+                        try:
+                            if s.recv(1) == b"":
+                                break  # closed by the server
+                        except socket.timeout:
+                            continue
+                        except OSError:
+                            break
+            except OSError:
+                pass  # a send after the server closed: closed
+            if connected is not None:
+                with lock:
+                    held.append(time.monotonic() - connected)
+
+        clients = [threading.Thread(target=drip_client, daemon=True) for _ in range(30)]
+        for t in clients:
+            t.start()
+        time.sleep(REQUEST_DEADLINE_S / 2)
+        code, latency = self.status_latency()
+        for t in clients:
+            t.join(timeout=2 * REQUEST_DEADLINE_S + 15)
+        if len(held) != len(clients):
+            raise Failed(f"{len(clients) - len(held)} of {len(clients)} dripping clients never "
+                         f"connected or never ended")
+        worst = max(held)
+
+        if code != 200 or latency > STATUS_DEADLINE_S:
+            raise Failed(f"status with 30 dripping clients: {code} in {latency:.2f} s")
+        if worst > REQUEST_DEADLINE_S + 3:
+            raise Failed(f"a dripping client was held {worst:.1f} s (request deadline "
+                         f"{REQUEST_DEADLINE_S} s)")
+        return (f"all 30 closed by the server {min(held):.1f}-{worst:.1f} s after connecting "
+                f"(deadline {REQUEST_DEADLINE_S} s); status meanwhile {latency * 1000:.0f} ms")
+
     def flood(self):
         stop = threading.Event()
         slow_errors = []
@@ -249,6 +298,7 @@ class LoadTest:
         self.check("big_body", self.big_body)
         self.check("many_headers", self.many_headers)
         self.check("stalled", self.stalled)
+        self.check("drip", self.drip)
         self.check("flood", self.flood)
         self.check("still_serving", lambda: f"status {self.status_latency()[0]}, "
                    f"monomesh-web {'running' if self.processes.alive('monomesh-web') else 'gone'}")

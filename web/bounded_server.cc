@@ -1,0 +1,164 @@
+#include "web/bounded_server.h"
+
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstring>
+#include <string>
+
+#include "base/poll.h"
+
+namespace mm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void NumericAddress(const sockaddr_storage& address, socklen_t length, std::string* ip, int* port) {
+  std::array<char, NI_MAXHOST> host{};
+  if (getnameinfo(reinterpret_cast<const sockaddr*>(&address), length, host.data(),
+                  static_cast<socklen_t>(host.size()), nullptr, 0, NI_NUMERICHOST) == 0) {
+    *ip = host.data();
+  }
+  if (address.ss_family == AF_INET) {
+    *port = ntohs(reinterpret_cast<const sockaddr_in*>(&address)->sin_port);
+  } else if (address.ss_family == AF_INET6) {
+    *port = ntohs(reinterpret_cast<const sockaddr_in6*>(&address)->sin6_port);
+  }
+}
+
+// A connected socket as httplib's Stream, its reads bounded by a per-read timeout and by the
+// current request's deadline, buffered (httplib reads the request line and headers a byte at
+// a time).
+class DeadlineStream final : public httplib::Stream {
+ public:
+  DeadlineStream(int fd, const BoundedServerOptions& options) : fd_(fd), options_(options) {}
+
+  // Waits up to the keep-alive timeout for the next request's first byte.
+  bool WaitForRequest() {
+    if (begin_ < end_) return true;
+    const int r = PollReadable(fd_, Clock::now() + options_.keep_alive_timeout);
+    return r > 0 && (r & POLLIN) != 0;
+  }
+  void StartRequest() { deadline_ = Clock::now() + options_.request_deadline; }
+  // Whether a read failed (the deadline, the read timeout, an error or the peer's end): httplib
+  // then answers 400 and would go on reading the rest of a drip as the next request, so the
+  // connection ends instead.
+  [[nodiscard]] bool ReadFailed() const { return read_failed_; }
+
+  bool is_readable() const override {
+    if (begin_ < end_) return true;
+    // Past the deadline nothing more is read, even bytes already waiting. Whether the poll
+    // waits for the deadline or for the read timeout is decided here, not from the clock after
+    // it (poll's millisecond timeout may end a hair before the deadline).
+    const Clock::time_point now = Clock::now();
+    if (now < deadline_) {
+      const Clock::time_point limit = std::min(deadline_, now + options_.read_timeout);
+      if ((PollFor(fd_, POLLIN, limit) & POLLIN) != 0) return true;
+    }
+    read_failed_ = true;
+    return false;
+  }
+  bool is_writable() const override {
+    return (PollFor(fd_, POLLOUT, Clock::now() + options_.write_timeout) & POLLOUT) != 0;
+  }
+
+  ssize_t read(char* ptr, size_t size) override {
+    if (begin_ == end_) {
+      if (!is_readable()) return -1;  // The request's deadline or the read timeout passed.
+      ssize_t n = 0;
+      do {
+        n = ::recv(fd_, buffer_.data(), buffer_.size(), 0);
+      } while (n < 0 && errno == EINTR);
+      if (n <= 0) {
+        read_failed_ = true;
+        return n;
+      }
+      begin_ = 0;
+      end_ = static_cast<size_t>(n);
+    }
+    const size_t n = std::min(size, end_ - begin_);
+    std::memcpy(ptr, buffer_.data() + begin_, n);
+    begin_ += n;
+    return static_cast<ssize_t>(n);
+  }
+
+  ssize_t write(const char* ptr, size_t size) override {
+    if (!is_writable()) return -1;
+    ssize_t n = 0;
+    do {
+      n = ::send(fd_, ptr, size, MSG_NOSIGNAL);
+    } while (n < 0 && errno == EINTR);
+    return n;
+  }
+
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    sockaddr_storage address{};
+    socklen_t length = sizeof(address);
+    if (getpeername(fd_, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
+      NumericAddress(address, length, &ip, &port);
+    }
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    sockaddr_storage address{};
+    socklen_t length = sizeof(address);
+    if (getsockname(fd_, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
+      NumericAddress(address, length, &ip, &port);
+    }
+  }
+  socket_t socket() const override { return fd_; }
+
+ private:
+  int fd_;
+  const BoundedServerOptions& options_;
+  Clock::time_point deadline_ = Clock::time_point::max();
+  mutable bool read_failed_ = false;
+  std::array<char, 4096> buffer_{};
+  size_t begin_ = 0;
+  size_t end_ = 0;
+};
+
+}  // namespace
+
+BoundedServer::BoundedServer(const BoundedServerOptions& options) : options_(options) {
+  const auto seconds = [](std::chrono::milliseconds t) {
+    return std::pair{static_cast<time_t>(t.count() / 1000),
+                     static_cast<time_t>(t.count() % 1000 * 1000)};
+  };
+  set_read_timeout(seconds(options_.read_timeout).first, seconds(options_.read_timeout).second);
+  set_write_timeout(seconds(options_.write_timeout).first, seconds(options_.write_timeout).second);
+  // Only for httplib's "Keep-Alive: timeout=N, max=M" response header; the loop below applies them.
+  set_keep_alive_timeout(std::max<time_t>(1, seconds(options_.keep_alive_timeout).first));
+  set_keep_alive_max_count(options_.keep_alive_max_count);
+}
+
+bool BoundedServer::ApplyListenBacklog() {
+  return svr_sock_ != INVALID_SOCKET && ::listen(svr_sock_, options_.listen_backlog) == 0;
+}
+
+// The loop of httplib's process_server_socket_core, over DeadlineStream: up to
+// keep_alive_max_count requests while the server runs, the last one answered with
+// "Connection: close".
+bool BoundedServer::process_and_close_socket(socket_t sock) {
+  bool ok = false;
+  {
+    DeadlineStream stream(sock, options_);
+    for (size_t left = options_.keep_alive_max_count; left > 0 && svr_sock_ != INVALID_SOCKET;
+         --left) {
+      if (!stream.WaitForRequest()) break;
+      stream.StartRequest();
+      bool connection_closed = false;
+      ok = process_request(stream, left == 1, connection_closed, nullptr);
+      if (!ok || connection_closed || stream.ReadFailed()) break;
+    }
+  }
+  ::shutdown(sock, SHUT_RDWR);
+  ::close(sock);
+  return ok;
+}
+
+}  // namespace mm
