@@ -18,7 +18,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-void NumericAddress(const sockaddr_storage& address, socklen_t length, std::string* ip, int* port) {
+// The numeric address of one end of `fd`: `get` is getpeername or getsockname.
+void SocketAddress(int fd, decltype(&::getpeername) get, std::string* ip, int* port) {
+  sockaddr_storage address{};
+  socklen_t length = sizeof(address);
+  if (get(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) return;
   std::array<char, NI_MAXHOST> host{};
   if (getnameinfo(reinterpret_cast<const sockaddr*>(&address), length, host.data(),
                   static_cast<socklen_t>(host.size()), nullptr, 0, NI_NUMERICHOST) == 0) {
@@ -31,6 +35,9 @@ void NumericAddress(const sockaddr_storage& address, socklen_t length, std::stri
   }
 }
 
+// Whether PollFor's answer has `event` (its -1, an error, has every bit set).
+bool Has(int revents, short event) { return revents > 0 && (revents & event) != 0; }
+
 // A connected socket as httplib's Stream, its reads bounded by a per-read timeout and by the
 // current request's deadline, buffered (httplib reads the request line and headers a byte at
 // a time).
@@ -41,8 +48,7 @@ class DeadlineStream final : public httplib::Stream {
   // Waits up to the keep-alive timeout for the next request's first byte.
   bool WaitForRequest() {
     if (begin_ < end_) return true;
-    const int r = PollReadable(fd_, Clock::now() + options_.keep_alive_timeout);
-    return r > 0 && (r & POLLIN) != 0;
+    return Has(PollReadable(fd_, Clock::now() + options_.keep_alive_timeout), POLLIN);
   }
   void StartRequest() { deadline_ = Clock::now() + options_.request_deadline; }
   // Whether a read failed (the deadline, the read timeout, an error or the peer's end): httplib
@@ -58,13 +64,13 @@ class DeadlineStream final : public httplib::Stream {
     const Clock::time_point now = Clock::now();
     if (now < deadline_) {
       const Clock::time_point limit = std::min(deadline_, now + options_.read_timeout);
-      if ((PollFor(fd_, POLLIN, limit) & POLLIN) != 0) return true;
+      if (Has(PollFor(fd_, POLLIN, limit), POLLIN)) return true;
     }
     read_failed_ = true;
     return false;
   }
   bool is_writable() const override {
-    return (PollFor(fd_, POLLOUT, Clock::now() + options_.write_timeout) & POLLOUT) != 0;
+    return Has(PollFor(fd_, POLLOUT, Clock::now() + options_.write_timeout), POLLOUT);
   }
 
   ssize_t read(char* ptr, size_t size) override {
@@ -97,18 +103,10 @@ class DeadlineStream final : public httplib::Stream {
   }
 
   void get_remote_ip_and_port(std::string& ip, int& port) const override {
-    sockaddr_storage address{};
-    socklen_t length = sizeof(address);
-    if (getpeername(fd_, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
-      NumericAddress(address, length, &ip, &port);
-    }
+    SocketAddress(fd_, &::getpeername, &ip, &port);
   }
   void get_local_ip_and_port(std::string& ip, int& port) const override {
-    sockaddr_storage address{};
-    socklen_t length = sizeof(address);
-    if (getsockname(fd_, reinterpret_cast<sockaddr*>(&address), &length) == 0) {
-      NumericAddress(address, length, &ip, &port);
-    }
+    SocketAddress(fd_, &::getsockname, &ip, &port);
   }
   socket_t socket() const override { return fd_; }
 
