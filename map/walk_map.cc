@@ -1,0 +1,343 @@
+#include "map/walk_map.h"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "recon/epipolar.h"
+
+namespace mm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Eigen::Vector2d Project(const Eigen::Matrix3d& k, const Eigen::Vector3d& x_cam) {
+  const Eigen::Vector3d p = k * x_cam;
+  return p.head<2>() / p.z();
+}
+
+}  // namespace
+
+std::string WalkOptions::Check() const {
+  if (std::string p = sift.Check(); !p.empty()) return "sift." + p;
+  if (std::string p = match.Check(); !p.empty()) return "match." + p;
+  if (std::string p = two_view.Check(); !p.empty()) return "two_view." + p;
+  if (std::string p = bundle.Check(); !p.empty()) return "bundle." + p;
+  if (match_keyframes < 1) return "match_keyframes: must be >= 1";
+  if (!(pnp_reprojection_px > 0)) return "pnp_reprojection_px: must be > 0";
+  if (pnp_iterations < 1) return "pnp_iterations: must be >= 1";
+  if (min_pnp_inliers < 6) return "min_pnp_inliers: must be >= 6";
+  if (!(max_reprojection_px > 0)) return "max_reprojection_px: must be > 0";
+  if (!(min_triangulation_angle_deg >= 0)) return "min_triangulation_angle_deg: must be >= 0";
+  if (window < 3) return "window: must be >= 3 (two keyframes are fixed)";
+  return {};
+}
+
+WalkMap::WalkMap(const Eigen::Matrix3d& K, WalkOptions options)
+    : K_(K), options_(std::move(options)) {}
+
+Eigen::Vector2d WalkMap::Pixel(int keyframe, int keypoint) const {
+  const cv::Point2f& p =
+      keyframes_[static_cast<size_t>(keyframe)].features.keypoints[static_cast<size_t>(keypoint)].pt;
+  return {p.x, p.y};
+}
+
+std::vector<int> WalkMap::SegmentKeyframes() const {
+  std::vector<int> out;
+  for (int i = segment_start_; i < static_cast<int>(keyframes_.size()); ++i) {
+    if (keyframes_[static_cast<size_t>(i)].registered) out.push_back(i);
+  }
+  return out;
+}
+
+void WalkMap::StartSegment(int keyframe) {
+  if (keyframe > 0) ++segment_;
+  segment_start_ = keyframe;
+  WalkKeyframe& k = keyframes_[static_cast<size_t>(keyframe)];
+  k.segment = segment_;
+  k.registered = true;
+  k.cam_from_segment = Eigen::Isometry3d::Identity();
+}
+
+WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s) {
+  const auto start = Clock::now();
+  WalkKeyframeSummary summary;
+  summary.index = static_cast<int>(keyframes_.size());
+  WalkKeyframe keyframe;
+  keyframe.timestamp_s = timestamp_s;
+  keyframe.features = ExtractSift(gray, options_.sift);
+  keyframe.point_of_keypoint.assign(keyframe.features.keypoints.size(), -1);
+  keyframe.segment = segment_;
+  keyframes_.push_back(std::move(keyframe));
+  const int index = summary.index;
+
+  const std::vector<int> segment = SegmentKeyframes();
+  bool registered = false;
+  if (segment.empty()) {
+    StartSegment(index);
+    registered = true;
+  } else if (segment.size() == 1) {
+    registered = Initialize(index, &summary);
+    if (!registered) {
+      // The segment's lone keyframe and this one do not make a pair: start again from here
+      // (the lone keyframe stays a segment of one).
+      StartSegment(index);
+    }
+  } else {
+    registered = Register(index, &summary);
+    if (registered) {
+      AdjustWindow(&summary);
+    } else {
+      StartSegment(index);
+    }
+  }
+  summary.registered = keyframes_.back().registered;
+  summary.segment = keyframes_.back().segment;
+  summary.time_s = std::chrono::duration<double>(Clock::now() - start).count();
+  (void)registered;
+  return summary;
+}
+
+bool WalkMap::Initialize(int keyframe, WalkKeyframeSummary* summary) {
+  const int first = SegmentKeyframes().front();
+  WalkKeyframe& a = keyframes_[static_cast<size_t>(first)];
+  WalkKeyframe& b = keyframes_[static_cast<size_t>(keyframe)];
+  const std::vector<Match> matches =
+      MatchDescriptors(a.features.descriptors, b.features.descriptors, options_.match);
+  summary->matches = static_cast<int>(matches.size());
+  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
+  for (const Match& m : matches) {
+    pixels_a.push_back(Pixel(first, m.index_a));
+    pixels_b.push_back(Pixel(keyframe, m.index_b));
+  }
+  TwoViewOptions two_view = options_.two_view;
+  two_view.seed = options_.seed + static_cast<unsigned>(keyframe);
+  const TwoViewResult pair = EstimateTwoView(pixels_a, pixels_b, K_, two_view);
+  if (!pair.success) {
+    summary->failure = "initialization: " + pair.failure_reason;
+    return false;
+  }
+  // The segment's frame is its first keyframe's (a.cam_from_segment = identity).
+  Eigen::Isometry3d b_from_a = Eigen::Isometry3d::Identity();
+  b_from_a.linear() = pair.rotation;
+  b_from_a.translation() = pair.translation;
+  b.cam_from_segment = b_from_a * a.cam_from_segment;
+  b.segment = segment_;
+  b.registered = true;
+  for (size_t i = 0; i < pair.points_in_cam_a.size(); ++i) {
+    const Match& m = matches[static_cast<size_t>(pair.point_correspondence[i])];
+    WalkPoint point;
+    point.segment = segment_;
+    point.position_in_segment = a.cam_from_segment.inverse() * pair.points_in_cam_a[i];
+    point.observations = {{first, m.index_a}, {keyframe, m.index_b}};
+    const int id = static_cast<int>(points_.size());
+    points_.push_back(std::move(point));
+    a.point_of_keypoint[static_cast<size_t>(m.index_a)] = id;
+    b.point_of_keypoint[static_cast<size_t>(m.index_b)] = id;
+  }
+  summary->new_points = static_cast<int>(pair.points_in_cam_a.size());
+  return true;
+}
+
+bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
+  std::vector<int> segment = SegmentKeyframes();
+  WalkKeyframe& k = keyframes_[static_cast<size_t>(keyframe)];
+  // Newest first: a keypoint of the new keyframe takes the map point of its match in the
+  // newest keyframe that has one.
+  const int count = std::min<int>(options_.match_keyframes, static_cast<int>(segment.size()));
+  std::map<int, int> point_of_new_keypoint;
+  std::vector<std::vector<Match>> matches_to(static_cast<size_t>(count));
+  for (int j = 0; j < count; ++j) {
+    const int other = segment[segment.size() - 1 - static_cast<size_t>(j)];
+    matches_to[static_cast<size_t>(j)] =
+        MatchDescriptors(keyframes_[static_cast<size_t>(other)].features.descriptors,
+                         k.features.descriptors, options_.match);
+    summary->matches += static_cast<int>(matches_to[static_cast<size_t>(j)].size());
+    for (const Match& m : matches_to[static_cast<size_t>(j)]) {
+      const int id =
+          keyframes_[static_cast<size_t>(other)].point_of_keypoint[static_cast<size_t>(m.index_a)];
+      if (id >= 0 && points_[static_cast<size_t>(id)].valid) {
+        point_of_new_keypoint.emplace(m.index_b, id);
+      }
+    }
+  }
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  std::vector<std::pair<int, int>> correspondence;  // (new keypoint, point)
+  for (const auto& [keypoint, id] : point_of_new_keypoint) {
+    const Eigen::Vector3d& x = points_[static_cast<size_t>(id)].position_in_segment;
+    const Eigen::Vector2d p = Pixel(keyframe, keypoint);
+    object.emplace_back(x.x(), x.y(), x.z());
+    image.emplace_back(p.x(), p.y());
+    correspondence.emplace_back(keypoint, id);
+  }
+  summary->matches_3d = static_cast<int>(object.size());
+  if (summary->matches_3d < options_.min_pnp_inliers) {
+    summary->failure = "registration: " + std::to_string(summary->matches_3d) +
+                       " matches to map points (need " +
+                       std::to_string(options_.min_pnp_inliers) + ")";
+    return false;
+  }
+  cv::Mat k_cv;
+  cv::eigen2cv(K_, k_cv);
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+  cv::setRNGSeed(static_cast<int>(options_.seed + static_cast<unsigned>(keyframe)));
+  const bool found = cv::solvePnPRansac(object, image, k_cv, cv::noArray(), rvec, tvec, false,
+                                        options_.pnp_iterations, options_.pnp_reprojection_px,
+                                        0.9999, inliers, cv::SOLVEPNP_SQPNP);
+  summary->pnp_inliers = static_cast<int>(inliers.size());
+  if (!found || summary->pnp_inliers < options_.min_pnp_inliers) {
+    summary->failure = "registration: " + std::to_string(summary->pnp_inliers) +
+                       " PnP inliers of " + std::to_string(summary->matches_3d) + " (need " +
+                       std::to_string(options_.min_pnp_inliers) + ")";
+    return false;
+  }
+  std::vector<cv::Point3d> object_in;
+  std::vector<cv::Point2d> image_in;
+  for (int i : inliers) {
+    object_in.push_back(object[static_cast<size_t>(i)]);
+    image_in.push_back(image[static_cast<size_t>(i)]);
+  }
+  cv::solvePnPRefineLM(object_in, image_in, k_cv, cv::noArray(), rvec, tvec);
+  cv::Mat rotation_cv;
+  cv::Rodrigues(rvec, rotation_cv);
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+  cv::cv2eigen(rotation_cv, rotation);
+  cv::cv2eigen(tvec, translation);
+  k.cam_from_segment.linear() = rotation;
+  k.cam_from_segment.translation() = translation;
+  k.segment = segment_;
+  k.registered = true;
+  // Observations of the map points, re-checked under the refined pose.
+  for (const auto& [keypoint, id] : correspondence) {
+    WalkPoint& point = points_[static_cast<size_t>(id)];
+    const Eigen::Vector3d x = k.cam_from_segment * point.position_in_segment;
+    if (x.z() <= 0 ||
+        (Project(K_, x) - Pixel(keyframe, keypoint)).norm() > options_.pnp_reprojection_px) {
+      continue;
+    }
+    point.observations.push_back({keyframe, keypoint});
+    k.point_of_keypoint[static_cast<size_t>(keypoint)] = id;
+  }
+  // New points from the matches to the newest keyframes that have no point yet.
+  for (int j = 0; j < count; ++j) {
+    const int other = segment[segment.size() - 1 - static_cast<size_t>(j)];
+    summary->new_points += TriangulateWith(keyframe, other, matches_to[static_cast<size_t>(j)]);
+  }
+  return true;
+}
+
+int WalkMap::TriangulateWith(int keyframe, int other, const std::vector<Match>& matches) {
+  WalkKeyframe& k = keyframes_[static_cast<size_t>(keyframe)];
+  WalkKeyframe& o = keyframes_[static_cast<size_t>(other)];
+  // Triangulated in `o`'s camera: B = k_from_o.
+  const Eigen::Isometry3d k_from_o = k.cam_from_segment * o.cam_from_segment.inverse();
+  RelativePose pose;
+  pose.rotation = k_from_o.linear();
+  pose.translation = k_from_o.translation();
+  const Eigen::Matrix3d k_inv = K_.inverse();
+  int added = 0;
+  for (const Match& m : matches) {
+    if (o.point_of_keypoint[static_cast<size_t>(m.index_a)] >= 0 ||
+        k.point_of_keypoint[static_cast<size_t>(m.index_b)] >= 0) {
+      continue;
+    }
+    const Eigen::Vector2d pixel_o = Pixel(other, m.index_a);
+    const Eigen::Vector2d pixel_k = Pixel(keyframe, m.index_b);
+    const Eigen::Vector2d x_o = (k_inv * pixel_o.homogeneous()).hnormalized();
+    const Eigen::Vector2d x_k = (k_inv * pixel_k.homogeneous()).hnormalized();
+    const Eigen::Vector3d p_o = RefineTriangulation(TriangulateLinear(x_o, x_k, pose), x_o, x_k,
+                                                    pose);
+    const Eigen::Vector3d p_k = k_from_o * p_o;
+    if (p_o.z() <= 0 || p_k.z() <= 0) continue;
+    const Eigen::Vector2d errors = ReprojectionErrorsPx(K_, p_o, p_k, pixel_o, pixel_k);
+    if (errors.maxCoeff() > options_.max_reprojection_px) continue;
+    if (TriangulationAngleDeg(p_o, pose) < options_.min_triangulation_angle_deg) continue;
+    WalkPoint point;
+    point.segment = segment_;
+    point.position_in_segment = o.cam_from_segment.inverse() * p_o;
+    point.observations = {{other, m.index_a}, {keyframe, m.index_b}};
+    const int id = static_cast<int>(points_.size());
+    points_.push_back(std::move(point));
+    o.point_of_keypoint[static_cast<size_t>(m.index_a)] = id;
+    k.point_of_keypoint[static_cast<size_t>(m.index_b)] = id;
+    ++added;
+  }
+  return added;
+}
+
+void WalkMap::AdjustWindow(WalkKeyframeSummary* summary) {
+  const std::vector<int> segment = SegmentKeyframes();
+  const size_t window = std::min(segment.size(), static_cast<size_t>(options_.window));
+  const std::vector<int> adjusted(segment.end() - static_cast<std::ptrdiff_t>(window),
+                                  segment.end());
+  LocalBundleProblem problem;
+  problem.k = K_;
+  std::map<int, int> pose_of_keyframe;
+  auto add_pose = [&](int keyframe, bool fixed) {
+    const auto [it, inserted] =
+        pose_of_keyframe.emplace(keyframe, static_cast<int>(problem.cam_from_world.size()));
+    if (inserted) {
+      problem.cam_from_world.push_back(keyframes_[static_cast<size_t>(keyframe)].cam_from_segment);
+      problem.pose_fixed.push_back(fixed);
+    }
+    return it->second;
+  };
+  // The window's two oldest keyframes are fixed: the gauge and the scale.
+  for (size_t i = 0; i < adjusted.size(); ++i) add_pose(adjusted[i], i < 2);
+  std::map<int, int> point_of_id;
+  for (int keyframe : adjusted) {
+    for (int id : keyframes_[static_cast<size_t>(keyframe)].point_of_keypoint) {
+      if (id < 0 || !points_[static_cast<size_t>(id)].valid) continue;
+      if (point_of_id.emplace(id, static_cast<int>(problem.points_in_world.size())).second) {
+        problem.points_in_world.push_back(points_[static_cast<size_t>(id)].position_in_segment);
+      }
+    }
+  }
+  for (const auto& [id, p] : point_of_id) {
+    for (const WalkPoint::Observation& o : points_[static_cast<size_t>(id)].observations) {
+      // Keyframes outside the window see the point from fixed poses.
+      const int pose = add_pose(o.keyframe, true);
+      problem.observations.push_back({pose, p, Pixel(o.keyframe, o.keypoint)});
+    }
+  }
+  const LocalBundleSummary bundle = AdjustLocalBundle(options_.bundle, &problem);
+  if (!bundle.ran) return;
+  summary->bundle_rms_px = bundle.final_rms_px;
+  for (const auto& [keyframe, pose] : pose_of_keyframe) {
+    keyframes_[static_cast<size_t>(keyframe)].cam_from_segment =
+        problem.cam_from_world[static_cast<size_t>(pose)];
+  }
+  // Points back; observations the adjusted map no longer explains are dropped, and a point
+  // left with fewer than two is invalid.
+  for (const auto& [id, p] : point_of_id) {
+    WalkPoint& point = points_[static_cast<size_t>(id)];
+    point.position_in_segment = problem.points_in_world[static_cast<size_t>(p)];
+    std::vector<WalkPoint::Observation> kept;
+    for (const WalkPoint::Observation& o : point.observations) {
+      const Eigen::Vector3d x =
+          keyframes_[static_cast<size_t>(o.keyframe)].cam_from_segment * point.position_in_segment;
+      if (x.z() > 0 &&
+          (Project(K_, x) - Pixel(o.keyframe, o.keypoint)).norm() <= options_.max_reprojection_px) {
+        kept.push_back(o);
+      } else {
+        keyframes_[static_cast<size_t>(o.keyframe)].point_of_keypoint[static_cast<size_t>(
+            o.keypoint)] = -1;
+      }
+    }
+    point.observations = std::move(kept);
+    if (point.observations.size() < 2) {
+      point.valid = false;
+      for (const WalkPoint::Observation& o : point.observations) {
+        keyframes_[static_cast<size_t>(o.keyframe)].point_of_keypoint[static_cast<size_t>(
+            o.keypoint)] = -1;
+      }
+    }
+  }
+}
+
+}  // namespace mm
