@@ -14,7 +14,7 @@ namespace mm {
 
 struct LocalBundleOptions {
   double huber_px = 1.0;
-  int max_iterations = 20;
+  int max_iterations = 10;  ///< The window moves little per keyframe (measured: 10 as good as 20).
   double function_tolerance = 1e-6;
   [[nodiscard]] std::string Check() const;
 };

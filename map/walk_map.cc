@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -18,6 +20,10 @@ Eigen::Vector2d Project(const Eigen::Matrix3d& k, const Eigen::Vector3d& x_cam) 
   return p.head<2>() / p.z();
 }
 
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
 }  // namespace
 
 std::string WalkOptions::Check() const {
@@ -31,6 +37,7 @@ std::string WalkOptions::Check() const {
   if (min_pnp_inliers < 6) return "min_pnp_inliers: must be >= 6";
   if (!(max_reprojection_px > 0)) return "max_reprojection_px: must be > 0";
   if (!(min_triangulation_angle_deg >= 0)) return "min_triangulation_angle_deg: must be >= 0";
+  if (!(search_radius_px >= 0)) return "search_radius_px: must be >= 0";
   if (window < 3) return "window: must be >= 3 (two keyframes are fixed)";
   return {};
 }
@@ -68,6 +75,7 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   WalkKeyframe keyframe;
   keyframe.timestamp_s = timestamp_s;
   keyframe.features = ExtractSift(gray, options_.sift);
+  summary.sift_s = SecondsSince(start);
   keyframe.point_of_keypoint.assign(keyframe.features.keypoints.size(), -1);
   keyframe.segment = segment_;
   keyframes_.push_back(std::move(keyframe));
@@ -88,15 +96,17 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   } else {
     registered = Register(index, &summary);
     if (registered) {
+      const auto bundle_start = Clock::now();
       AdjustWindow(&summary);
+      summary.bundle_s = SecondsSince(bundle_start);
     } else {
       StartSegment(index);
     }
   }
   summary.registered = keyframes_.back().registered;
   summary.segment = keyframes_.back().segment;
-  summary.time_s = std::chrono::duration<double>(Clock::now() - start).count();
-  (void)registered;
+  summary.time_s = SecondsSince(start);
+  summary.pose_s = summary.time_s - summary.sift_s - summary.matching_s - summary.bundle_s;
   return summary;
 }
 
@@ -104,8 +114,10 @@ bool WalkMap::Initialize(int keyframe, WalkKeyframeSummary* summary) {
   const int first = SegmentKeyframes().front();
   WalkKeyframe& a = keyframes_[static_cast<size_t>(first)];
   WalkKeyframe& b = keyframes_[static_cast<size_t>(keyframe)];
+  const auto matching_start = Clock::now();
   const std::vector<Match> matches =
       MatchDescriptors(a.features.descriptors, b.features.descriptors, options_.match);
+  summary->matching_s = SecondsSince(matching_start);
   summary->matches = static_cast<int>(matches.size());
   std::vector<Eigen::Vector2d> pixels_a, pixels_b;
   for (const Match& m : matches) {
@@ -149,6 +161,7 @@ bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
   const int count = std::min<int>(options_.match_keyframes, static_cast<int>(segment.size()));
   std::map<int, int> point_of_new_keypoint;
   std::vector<std::vector<Match>> matches_to(static_cast<size_t>(count));
+  const auto matching_start = Clock::now();
   for (int j = 0; j < count; ++j) {
     const int other = segment[segment.size() - 1 - static_cast<size_t>(j)];
     matches_to[static_cast<size_t>(j)] =
@@ -163,6 +176,7 @@ bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
       }
     }
   }
+  summary->matching_s = SecondsSince(matching_start);
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> image;
   std::vector<std::pair<int, int>> correspondence;  // (new keypoint, point)
@@ -223,12 +237,91 @@ bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
     point.observations.push_back({keyframe, keypoint});
     k.point_of_keypoint[static_cast<size_t>(keypoint)] = id;
   }
+  summary->projected_matches = SearchByProjection(keyframe);
   // New points from the matches to the newest keyframes that have no point yet.
   for (int j = 0; j < count; ++j) {
     const int other = segment[segment.size() - 1 - static_cast<size_t>(j)];
     summary->new_points += TriangulateWith(keyframe, other, matches_to[static_cast<size_t>(j)]);
   }
   return true;
+}
+
+int WalkMap::SearchByProjection(int keyframe) {
+  if (options_.search_radius_px <= 0) return 0;
+  WalkKeyframe& k = keyframes_[static_cast<size_t>(keyframe)];
+  const std::vector<cv::KeyPoint>& keypoints = k.features.keypoints;
+  if (keypoints.empty()) return 0;
+  // Keypoints without a point, bucketed in cells of the search radius.
+  const double cell = std::max(options_.search_radius_px, 1.0);
+  std::multimap<std::pair<int, int>, int> grid;
+  for (size_t i = 0; i < keypoints.size(); ++i) {
+    if (k.point_of_keypoint[i] >= 0) continue;
+    grid.emplace(std::make_pair(static_cast<int>(keypoints[i].pt.x / cell),
+                                static_cast<int>(keypoints[i].pt.y / cell)),
+                 static_cast<int>(i));
+  }
+  std::vector<char> seen(points_.size(), 0);
+  for (int id : k.point_of_keypoint) {
+    if (id >= 0) seen[static_cast<size_t>(id)] = 1;
+  }
+  const std::vector<int> segment = SegmentKeyframes();
+  const size_t window = std::min(segment.size(), static_cast<size_t>(options_.window));
+  const double ratio_sq = options_.match.ratio * options_.match.ratio;
+  const double radius_sq = options_.search_radius_px * options_.search_radius_px;
+  int found = 0;
+  for (size_t w = segment.size() - window; w < segment.size(); ++w) {
+    const int other = segment[w];
+    if (other == keyframe) continue;
+    for (int id : keyframes_[static_cast<size_t>(other)].point_of_keypoint) {
+      if (id < 0 || seen[static_cast<size_t>(id)] || !points_[static_cast<size_t>(id)].valid) {
+        continue;
+      }
+      seen[static_cast<size_t>(id)] = 1;
+      WalkPoint& point = points_[static_cast<size_t>(id)];
+      const Eigen::Vector3d x = k.cam_from_segment * point.position_in_segment;
+      if (x.z() <= 0) continue;
+      const Eigen::Vector2d pixel = Project(K_, x);
+      const WalkPoint::Observation& newest = point.observations.back();
+      const cv::Mat reference = keyframes_[static_cast<size_t>(newest.keyframe)]
+                                    .features.descriptors.row(newest.keypoint);
+      const int cx = static_cast<int>(pixel.x() / cell);
+      const int cy = static_cast<int>(pixel.y() / cell);
+      double best = std::numeric_limits<double>::infinity(), second = best;
+      int best_keypoint = -1;
+      for (int gx = cx - 1; gx <= cx + 1; ++gx) {
+        for (int gy = cy - 1; gy <= cy + 1; ++gy) {
+          const auto [first, last] = grid.equal_range({gx, gy});
+          for (auto it = first; it != last; ++it) {
+            const cv::Point2f& p = keypoints[static_cast<size_t>(it->second)].pt;
+            if ((Eigen::Vector2d(p.x, p.y) - pixel).squaredNorm() > radius_sq) continue;
+            const double d =
+                cv::norm(reference, k.features.descriptors.row(it->second), cv::NORM_L2SQR);
+            if (d < best) {
+              second = best;
+              best = d;
+              best_keypoint = it->second;
+            } else if (d < second) {
+              second = d;
+            }
+          }
+        }
+      }
+      if (best_keypoint < 0 || k.point_of_keypoint[static_cast<size_t>(best_keypoint)] >= 0) {
+        continue;
+      }
+      if (std::isfinite(second) && best > ratio_sq * second) continue;
+      // Lowe's ratio against the runner-up in the radius; a lone candidate must still be as
+      // near as a ratio-passing match would be to the reference's own scale (its norm).
+      if (!std::isfinite(second) &&
+          best > ratio_sq * cv::norm(reference, cv::NORM_L2SQR)) {
+        continue;
+      }
+      point.observations.push_back({keyframe, best_keypoint});
+      k.point_of_keypoint[static_cast<size_t>(best_keypoint)] = id;
+      ++found;
+    }
+  }
+  return found;
 }
 
 int WalkMap::TriangulateWith(int keyframe, int other, const std::vector<Match>& matches) {
@@ -242,8 +335,20 @@ int WalkMap::TriangulateWith(int keyframe, int other, const std::vector<Match>& 
   const Eigen::Matrix3d k_inv = K_.inverse();
   int added = 0;
   for (const Match& m : matches) {
-    if (o.point_of_keypoint[static_cast<size_t>(m.index_a)] >= 0 ||
-        k.point_of_keypoint[static_cast<size_t>(m.index_b)] >= 0) {
+    const int point_o = o.point_of_keypoint[static_cast<size_t>(m.index_a)];
+    const int point_k = k.point_of_keypoint[static_cast<size_t>(m.index_b)];
+    if (point_o >= 0) continue;
+    if (point_k >= 0) {
+      // The new keyframe's keypoint already sees a map point (registered against a newer
+      // keyframe): the match adds `other`'s observation of it where that reprojects, which
+      // lengthens the track the bundle adjustment constrains.
+      WalkPoint& point = points_[static_cast<size_t>(point_k)];
+      const Eigen::Vector3d x = o.cam_from_segment * point.position_in_segment;
+      if (x.z() > 0 &&
+          (Project(K_, x) - Pixel(other, m.index_a)).norm() <= options_.max_reprojection_px) {
+        point.observations.push_back({other, m.index_a});
+        o.point_of_keypoint[static_cast<size_t>(m.index_a)] = point_k;
+      }
       continue;
     }
     const Eigen::Vector2d pixel_o = Pixel(other, m.index_a);

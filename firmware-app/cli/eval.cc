@@ -7,6 +7,9 @@
 // `monomesh eval --dataset DIR --spool SPOOL [--feed-log FILE] [--json FILE]`: instead, compare
 // the daemon's spool entries (their report.json) with the dataset's ground truth
 // (eval/entry_eval.h).
+// `monomesh eval --walk --dataset DIR --calib C [--list FILE] [--every-frame] [--json FILE]`:
+// run a walk over the sequence and compare its keyframe poses with the ground truth
+// (eval/walk_eval.h).
 
 #include <fstream>
 #include <iostream>
@@ -16,6 +19,7 @@
 #include "eval/capture_eval.h"
 #include "eval/entry_eval.h"
 #include "eval/tum_pairs.h"
+#include "eval/walk_eval.h"
 
 namespace mm::cli {
 namespace {
@@ -38,6 +42,11 @@ struct EvalArgs {
   std::string sift_impl = SiftImplName(EvalOptions{}.pair.sift.impl);
   bool quiet = false;
   bool captures = false;
+  bool walk = false;
+  bool every_frame = false;
+  bool resize_given = false;  ///< --sift-resize on the command line (the walk has its own default).
+  int walk_window = WalkOptions{}.window;
+  int match_keyframes = WalkOptions{}.match_keyframes;
   bool log_gate = false;
   double trigger_every_s = CaptureEvalOptions{}.trigger_every_s;
   double parallax_deg = KeyframeGateOptions{}.parallax_deg;
@@ -108,6 +117,45 @@ int RunCaptureEval(const EvalArgs& args, const BouguetCamera& camera, const Pair
   return 0;
 }
 
+int RunWalkEval(const EvalArgs& args, const BouguetCamera& camera, const PairOptions& pair) {
+  WalkEvalOptions options;
+  options.list = args.list;
+  options.every_frame = args.every_frame;
+  options.threads = args.threads;
+  options.walk.sift = pair.sift;
+  if (!args.resize_given) options.walk.sift.resize_factor = WalkOptions{}.sift.resize_factor;
+  options.walk.match = pair.match;
+  options.walk.two_view = pair.two_view;
+  options.walk.two_view.min_median_triangulation_angle_deg = args.min_parallax_deg;
+  options.walk.seed = args.seed;
+  options.walk.window = args.walk_window;
+  options.walk.match_keyframes = args.match_keyframes;
+  options.gate.parallax_deg = args.parallax_deg;
+  options.gate.two_view = options.walk.two_view;
+  if (const std::string problem = options.Check(); !problem.empty()) {
+    std::cerr << "monomesh eval: " << problem << "\n";
+    return 2;
+  }
+  const WalkEvalResult result = EvaluateWalk(args.dataset, camera, options);
+  if (!result.ok) {
+    std::cerr << "monomesh eval: " << result.failure_reason << "\n";
+    return 1;
+  }
+  if (!args.quiet) {
+    for (const WalkKeyframeEval& k : result.keyframes) std::cout << FormatWalkKeyframeLine(k);
+  }
+  std::cout << FormatWalkSummary(result.summary);
+  if (!args.json.empty()) {
+    std::ofstream out(args.json);
+    out << WalkEvalToJson(result);
+    if (!out) {
+      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
+      return 1;
+    }
+  }
+  return 0;
+}
+
 int RunEval(const EvalArgs& args) {
   if (!args.spool.empty()) return RunEntryEval(args);
   if (args.calib.empty()) {
@@ -133,6 +181,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
   options.pair.mesh_mode = *ParseMeshMode(args.mesh_mode);  // CLI11 checked the name.
   if (args.captures) return RunCaptureEval(args, camera, options.pair);
+  if (args.walk) return RunWalkEval(args, camera, options.pair);
   if (const std::string problem = options.Check(); !problem.empty()) {
     std::cerr << "monomesh eval: " << problem << "\n";
     return 2;
@@ -208,6 +257,18 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   cmd->add_flag("--captures", args->captures,
                 "Play the sequence through the daemon's gate and worker and press capture");
+  auto* walk = cmd->add_flag("--walk", args->walk,
+                              "Run a walk (one map from many keyframes) over the sequence and "
+                              "compare its keyframe poses with the ground truth");
+  cmd->add_flag("--every-frame", args->every_frame,
+                "With --walk: every listed frame is a keyframe (else the gate chooses)")
+      ->needs(walk);
+  cmd->add_option("--walk-window", args->walk_window,
+                  "With --walk: keyframes the local bundle adjustment adjusts (two fixed)")
+      ->needs(walk);
+  cmd->add_option("--match-keyframes", args->match_keyframes,
+                  "With --walk: newest keyframes a new one is matched against")
+      ->needs(walk);
   cmd->add_option("--trigger-every", args->trigger_every_s,
                   "With --captures: press capture every S seconds of video (and after each "
                   "result)")
@@ -239,6 +300,7 @@ Runner AddEvalCommand(CLI::App& app) {
                   "With --scale floor|auto: the camera's nominal pitch, down positive (deg)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
+    args->resize_given = cmd->count("--sift-resize") > 0;
     return RunEval(*args);
   };
 }

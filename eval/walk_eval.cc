@@ -1,0 +1,307 @@
+#include "eval/walk_eval.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "base/stats.h"
+#include "calib/undistort.h"
+#include "dataset/tum.h"
+#include "entry/json_text.h"
+#include "eval/tum_pairs.h"
+
+namespace mm {
+namespace {
+
+double ThreadCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+bool HasDistortion(const BouguetCamera& c) {
+  return std::any_of(c.kc.begin(), c.kc.end(), [](double k) { return k != 0.0; });
+}
+
+// Scale of the Sim(3) that aligns the estimated centres of `ids` to their ground truth; 0 with
+// fewer than 3.
+double ScaleOf(const std::vector<int>& ids, const std::vector<Eigen::Vector3d>& estimated,
+               const std::vector<Eigen::Vector3d>& truth) {
+  if (ids.size() < 3) return 0.0;
+  Eigen::Matrix3Xd src(3, static_cast<Eigen::Index>(ids.size()));
+  Eigen::Matrix3Xd dst(3, static_cast<Eigen::Index>(ids.size()));
+  for (size_t i = 0; i < ids.size(); ++i) {
+    src.col(static_cast<Eigen::Index>(i)) = estimated[static_cast<size_t>(ids[i])];
+    dst.col(static_cast<Eigen::Index>(i)) = truth[static_cast<size_t>(ids[i])];
+  }
+  return AlignSim3(src, dst).topLeftCorner<3, 3>().col(0).norm();
+}
+
+}  // namespace
+
+std::string WalkEvalOptions::Check() const {
+  if (std::string p = walk.Check(); !p.empty()) return "walk." + p;
+  if (!every_frame) {
+    if (std::string p = gate.Check(); !p.empty()) return "gate." + p;
+  }
+  if (!(max_gt_dt_s >= 0)) return "max_gt_dt_s: must be >= 0";
+  return {};
+}
+
+Eigen::Matrix4d AlignSim3(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target) {
+  return Eigen::umeyama(source, target, true);
+}
+
+WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetCamera& camera,
+                            const WalkEvalOptions& options) {
+  WalkEvalResult result;
+  if (std::string problem = options.Check(); !problem.empty()) {
+    result.failure_reason = "options: " + problem;
+    return result;
+  }
+  if (std::string missing = MissingGroundTruth(dataset); !missing.empty()) {
+    result.failure_reason = missing;
+    return result;
+  }
+  std::vector<TumFrame> frames;
+  std::optional<Trajectory> trajectory;
+  try {
+    std::filesystem::path list = options.list.empty() ? dataset / "rgb.txt" : options.list;
+    if (list.is_relative() && !std::filesystem::exists(list)) list = dataset / list;
+    frames = ReadTumList(list);
+    trajectory = Trajectory::Read(dataset / "groundtruth.txt");
+  } catch (const DatasetError& e) {
+    result.failure_reason = e.what();
+    return result;
+  }
+  if (frames.empty()) {
+    result.failure_reason = "no frames in the list";
+    return result;
+  }
+  if (options.threads > 0) cv::setNumThreads(options.threads);
+
+  BouguetCamera sized = camera;
+  std::optional<Undistorter> undistorter;
+  std::optional<WalkMap> map;
+  std::optional<KeyframeGate> gate;
+  const double cpu_start = ThreadCpuSeconds();
+
+  auto add_keyframe = [&](const cv::Mat& gray, size_t frame) {
+    WalkKeyframeEval k;
+    k.frame = static_cast<int>(frame);
+    k.timestamp_s = frames[frame].timestamp_s;
+    k.image = frames[frame].path.string();
+    const double cpu0 = ThreadCpuSeconds();
+    k.walk = map->AddKeyframe(gray, k.timestamp_s);
+    k.cpu_s = ThreadCpuSeconds() - cpu0;
+    result.keyframes.push_back(std::move(k));
+  };
+
+  for (size_t i = 0; i < frames.size(); ++i) {
+    cv::Mat image = cv::imread(frames[i].path.string(), cv::IMREAD_GRAYSCALE);
+    if (image.empty()) {
+      result.failure_reason = "cannot read image " + frames[i].path.string() + " (line " +
+                              std::to_string(frames[i].line) + ")";
+      return result;
+    }
+    if (sized.width == 0) {
+      sized.width = image.cols;
+      sized.height = image.rows;
+    }
+    if (image.cols != sized.width || image.rows != sized.height) {
+      result.failure_reason = "image " + frames[i].path.string() + " is " +
+                              std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                              ", the calibration " + std::to_string(sized.width) + "x" +
+                              std::to_string(sized.height);
+      return result;
+    }
+    if (HasDistortion(sized)) {
+      if (!undistorter) undistorter.emplace(sized);
+      image = undistorter->Apply(image);
+    }
+    const Eigen::Matrix3d k =
+        undistorter ? undistorter->output_camera().K() : sized.K();
+    if (!map) map.emplace(k, options.walk);
+    ++result.summary.frames;
+    if (options.every_frame) {
+      add_keyframe(image, i);
+      continue;
+    }
+    if (!gate) {
+      gate.emplace(k, options.gate);
+      add_keyframe(image, i);
+      gate->Start(image);
+      continue;
+    }
+    const GateDecision decision = gate->Update(image);
+    if (decision.verdict != GateDecision::Verdict::kWait) {
+      // Enough parallax for a new keyframe, or the view left the last one's (lost track):
+      // the map decides whether it registers.
+      add_keyframe(image, i);
+      gate->Start(image);
+    }
+  }
+  WalkEvalSummary& s = result.summary;
+  s.cpu_total_s = ThreadCpuSeconds() - cpu_start;
+  s.keyframes = static_cast<int>(result.keyframes.size());
+  s.segments = map ? map->segments() : 0;
+  if (map) {
+    s.points = static_cast<int>(std::count_if(map->points().begin(), map->points().end(),
+                                              [](const WalkPoint& p) { return p.valid; }));
+  }
+  std::map<int, int> size_of_segment;
+  std::vector<double> cpu;
+  std::vector<Eigen::Vector3d> estimated(result.keyframes.size()), truth(result.keyframes.size());
+  std::vector<Eigen::Isometry3d> world_from_cam_gt(result.keyframes.size());
+  for (size_t i = 0; i < result.keyframes.size(); ++i) {
+    WalkKeyframeEval& k = result.keyframes[i];
+    cpu.push_back(k.cpu_s);
+    if (!k.walk.registered) continue;
+    ++s.registered;
+    const std::optional<Eigen::Isometry3d> gt =
+        trajectory->WorldFromCamAt(k.timestamp_s, options.max_gt_dt_s);
+    if (!gt) continue;
+    k.has_gt = true;
+    world_from_cam_gt[i] = *gt;
+    truth[i] = gt->translation();
+    estimated[i] = map->keyframes()[i].cam_from_segment.inverse().translation();
+    ++size_of_segment[k.walk.segment];
+  }
+  s.cpu_per_keyframe_s_median = cpu.empty() ? 0.0 : MedianOf(cpu);
+  if (size_of_segment.empty()) return result.ok = true, result;
+  s.evaluated_segment =
+      std::max_element(size_of_segment.begin(), size_of_segment.end(),
+                       [](const auto& a, const auto& b) { return a.second < b.second; })
+          ->first;
+  std::vector<int> ids;
+  for (size_t i = 0; i < result.keyframes.size(); ++i) {
+    WalkKeyframeEval& k = result.keyframes[i];
+    if (k.has_gt && k.walk.registered && k.walk.segment == s.evaluated_segment) {
+      k.in_evaluated_segment = true;
+      ids.push_back(static_cast<int>(i));
+    }
+  }
+  s.evaluated_keyframes = static_cast<int>(ids.size());
+  for (size_t j = 1; j < ids.size(); ++j) {
+    s.path_length_m += (truth[static_cast<size_t>(ids[j])] - truth[static_cast<size_t>(ids[j - 1])]).norm();
+  }
+  std::vector<double> rpe;
+  for (size_t j = 1; j < ids.size(); ++j) {
+    const auto a = static_cast<size_t>(ids[j - 1]);
+    const auto b = static_cast<size_t>(ids[j]);
+    const Eigen::Isometry3d est =
+        map->keyframes()[b].cam_from_segment * map->keyframes()[a].cam_from_segment.inverse();
+    const Eigen::Isometry3d gt = CamBFromCamA(world_from_cam_gt[a], world_from_cam_gt[b]);
+    result.keyframes[b].rpe_rot_deg = RotationErrorDeg(est.linear(), gt.linear());
+    rpe.push_back(result.keyframes[b].rpe_rot_deg);
+  }
+  s.rpe_rot_deg_median = rpe.empty() ? 0.0 : MedianOf(rpe);
+  if (ids.size() >= 3) {
+    Eigen::Matrix3Xd src(3, static_cast<Eigen::Index>(ids.size()));
+    Eigen::Matrix3Xd dst(3, static_cast<Eigen::Index>(ids.size()));
+    for (size_t j = 0; j < ids.size(); ++j) {
+      src.col(static_cast<Eigen::Index>(j)) = estimated[static_cast<size_t>(ids[j])];
+      dst.col(static_cast<Eigen::Index>(j)) = truth[static_cast<size_t>(ids[j])];
+    }
+    const Eigen::Matrix4d sim3 = AlignSim3(src, dst);
+    s.sim3_scale = sim3.topLeftCorner<3, 3>().col(0).norm();
+    double sum = 0.0;
+    for (size_t j = 0; j < ids.size(); ++j) {
+      const Eigen::Vector3d aligned =
+          (sim3 * src.col(static_cast<Eigen::Index>(j)).homogeneous()).head<3>();
+      const double err = (aligned - dst.col(static_cast<Eigen::Index>(j))).norm();
+      result.keyframes[static_cast<size_t>(ids[j])].position_err_m = err;
+      sum += err * err;
+      s.ate_max_m = std::max(s.ate_max_m, err);
+    }
+    s.ate_rmse_m = std::sqrt(sum / static_cast<double>(ids.size()));
+    const size_t third = ids.size() / 3;
+    const std::vector<int> first(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(third));
+    const std::vector<int> last(ids.end() - static_cast<std::ptrdiff_t>(third), ids.end());
+    const double s_first = ScaleOf(first, estimated, truth);
+    const double s_last = ScaleOf(last, estimated, truth);
+    if (s_first > 0 && s_last > 0) s.scale_drift = std::abs(s_last / s_first - 1.0);
+  }
+  result.ok = true;
+  return result;
+}
+
+std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "kf %3d frame %5d seg %d %s matches %4d 3d %4d inliers %4d new %4d ba %.2f px "
+                "err %6.2f cm rpe %5.2f deg cpu %5.1f ms (sift %.0f match %.0f pose %.0f ba %.0f)%s%s",
+                k.walk.index, k.frame, k.walk.segment, k.walk.registered ? "reg  " : "LOST ",
+                k.walk.matches, k.walk.matches_3d, k.walk.pnp_inliers, k.walk.new_points,
+                k.walk.bundle_rms_px, 100.0 * k.position_err_m, k.rpe_rot_deg, 1e3 * k.cpu_s,
+                1e3 * k.walk.sift_s, 1e3 * k.walk.matching_s, 1e3 * k.walk.pose_s,
+                1e3 * k.walk.bundle_s,
+                k.walk.failure.empty() ? "" : "  ", k.walk.failure.c_str());
+  return std::string(line) + "\n";
+}
+
+std::string FormatWalkSummary(const WalkEvalSummary& s) {
+  char text[1024];
+  std::snprintf(text, sizeof text,
+                "walk: %d frames, %d keyframes, %d registered, %d segment(s); evaluated segment "
+                "%d: %d keyframes\n"
+                "  ATE RMSE %.2f cm (max %.2f cm) over a %.2f m path (%.3f %%), RPE rotation "
+                "median %.3f deg, scale drift %.2f %%\n"
+                "  CPU per keyframe median %.1f ms (total %.2f s), %d map points\n",
+                s.frames, s.keyframes, s.registered, s.segments, s.evaluated_segment,
+                s.evaluated_keyframes, 100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m,
+                s.path_length_m, s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0,
+                s.rpe_rot_deg_median, 100.0 * s.scale_drift, 1e3 * s.cpu_per_keyframe_s_median,
+                s.cpu_total_s, s.points);
+  return text;
+}
+
+std::string WalkEvalToJson(const WalkEvalResult& result) {
+  using json = nlohmann::json;
+  const WalkEvalSummary& s = result.summary;
+  json walk = {{"frames", s.frames},
+               {"keyframes", s.keyframes},
+               {"registered", s.registered},
+               {"segments", s.segments},
+               {"evaluated_segment", s.evaluated_segment},
+               {"evaluated_keyframes", s.evaluated_keyframes},
+               {"ate_rmse_m", s.ate_rmse_m},
+               {"ate_max_m", s.ate_max_m},
+               {"path_length_m", s.path_length_m},
+               {"sim3_scale", s.sim3_scale},
+               {"rpe_rot_deg_median", s.rpe_rot_deg_median},
+               {"scale_drift", s.scale_drift},
+               {"cpu_per_keyframe_s_median", s.cpu_per_keyframe_s_median},
+               {"cpu_total_s", s.cpu_total_s},
+               {"points", s.points}};
+  json keyframes = json::array();
+  for (const WalkKeyframeEval& k : result.keyframes) {
+    keyframes.push_back({{"index", k.walk.index},
+                         {"frame", k.frame},
+                         {"timestamp", k.timestamp_s},
+                         {"image", k.image},
+                         {"segment", k.walk.segment},
+                         {"registered", k.walk.registered},
+                         {"failure", k.walk.failure},
+                         {"matches", k.walk.matches},
+                         {"matches_3d", k.walk.matches_3d},
+                         {"pnp_inliers", k.walk.pnp_inliers},
+                         {"new_points", k.walk.new_points},
+                         {"bundle_rms_px", k.walk.bundle_rms_px},
+                         {"cpu_s", k.cpu_s},
+                         {"has_gt", k.has_gt},
+                         {"position_err_m", k.in_evaluated_segment ? json(k.position_err_m) : json()},
+                         {"rpe_rot_deg", k.rpe_rot_deg >= 0 ? json(k.rpe_rot_deg) : json()}});
+  }
+  return JsonText(json{{"summary", {{"walk", walk}}}, {"keyframes", keyframes}}, 2) + "\n";
+}
+
+}  // namespace mm

@@ -1,0 +1,88 @@
+#pragma once
+// Evaluation of a walk (map/walk_map.h) on a TUM RGB-D style folder: the frames of a list go
+// through the walk, every frame a keyframe (`every_frame`) or the keyframes chosen by the
+// gate (recon/keyframe_gate.h: a new keyframe when the rotation-compensated parallax against
+// the last one passes the threshold, as in the daemon's walk). The keyframe poses are compared
+// with the ground truth:
+//   ATE: RMSE of the camera centres after a Sim(3) alignment (Umeyama 1991), over the
+//        registered keyframes of the largest segment (Sturm et al. 2012, sec. VI-B);
+//   RPE: per consecutive keyframe pair, the rotation error of the relative pose;
+//   scale drift: the Sim(3) scales fitted to the first and to the last third of the
+//        keyframes, |s_last / s_first - 1|.
+// Used by `monomesh eval --walk`, the walk accuracy test and bench/.
+//
+// Thread-safety: EvaluateWalk sets OpenCV's thread count (process-wide) when asked to.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "calib/camera_model.h"
+#include "map/walk_map.h"
+#include "recon/keyframe_gate.h"
+
+namespace mm {
+
+struct WalkEvalOptions {
+  std::filesystem::path list;   ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
+  bool every_frame = false;     ///< Every listed frame a keyframe; else the gate chooses.
+  int threads = 1;              ///< cv::setNumThreads for the run (timings are 1 thread).
+  double max_gt_dt_s = 0.1;     ///< Ground-truth extrapolation limit.
+  WalkOptions walk;
+  KeyframeGateOptions gate;     ///< Without every_frame.
+  [[nodiscard]] std::string Check() const;
+};
+
+struct WalkKeyframeEval {
+  WalkKeyframeSummary walk;     ///< What the walk did with it.
+  int frame = 0;                ///< Index in the list.
+  double timestamp_s = 0.0;
+  std::string image;
+  double cpu_s = 0.0;           ///< Thread CPU time of AddKeyframe.
+  bool has_gt = false;
+  bool in_evaluated_segment = false;
+  double position_err_m = 0.0;  ///< After the alignment (evaluated segment only).
+  double rpe_rot_deg = -1.0;    ///< To the previous keyframe of its segment; -1: none.
+};
+
+struct WalkEvalSummary {
+  int frames = 0;               ///< Frames read.
+  int keyframes = 0;
+  int registered = 0;           ///< Keyframes with a pose (a segment's first counts).
+  int segments = 0;
+  int evaluated_segment = 0;    ///< The largest segment, which the figures below are of.
+  int evaluated_keyframes = 0;
+  double ate_rmse_m = 0.0;
+  double ate_max_m = 0.0;
+  double path_length_m = 0.0;   ///< Ground-truth path through the evaluated keyframes.
+  double sim3_scale = 0.0;      ///< Metres per map unit of the alignment.
+  double rpe_rot_deg_median = 0.0;
+  double scale_drift = 0.0;     ///< 0 when a third has fewer than 3 keyframes.
+  double cpu_per_keyframe_s_median = 0.0;
+  double cpu_total_s = 0.0;     ///< All frames, gate included.
+  int points = 0;               ///< Valid map points.
+};
+
+struct WalkEvalResult {
+  bool ok = false;
+  std::string failure_reason;
+  std::vector<WalkKeyframeEval> keyframes;
+  WalkEvalSummary summary;
+};
+
+/// Sim(3) that maps `source` onto `target` (columns are points) in the least-squares sense
+/// (Umeyama 1991); needs >= 3 points not all on a line.
+Eigen::Matrix4d AlignSim3(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target);
+
+/// Runs the walk on the dataset; dataset errors are reported in the result (ok = false).
+WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetCamera& camera,
+                            const WalkEvalOptions& options);
+
+std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k);
+std::string FormatWalkSummary(const WalkEvalSummary& s);
+/// {"summary": {"walk": {...}}, "keyframes": [...]}: metres, degrees, seconds.
+std::string WalkEvalToJson(const WalkEvalResult& result);
+
+}  // namespace mm
