@@ -7,10 +7,10 @@
 #include <ctime>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <optional>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "base/stats.h"
 #include "calib/undistort.h"
@@ -127,8 +127,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       if (!undistorter) undistorter.emplace(sized);
       image = undistorter->Apply(image);
     }
-    const Eigen::Matrix3d k =
-        undistorter ? undistorter->output_camera().K() : sized.K();
+    const Eigen::Matrix3d k = undistorter ? undistorter->output_camera().K() : sized.K();
     if (!map) map.emplace(k, options.walk);
     ++result.summary.frames;
     if (options.every_frame) {
@@ -191,7 +190,8 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   }
   s.evaluated_keyframes = static_cast<int>(ids.size());
   for (size_t j = 1; j < ids.size(); ++j) {
-    s.path_length_m += (truth[static_cast<size_t>(ids[j])] - truth[static_cast<size_t>(ids[j - 1])]).norm();
+    s.path_length_m +=
+        (truth[static_cast<size_t>(ids[j])] - truth[static_cast<size_t>(ids[j - 1])]).norm();
   }
   std::vector<double> rpe;
   for (size_t j = 1; j < ids.size(); ++j) {
@@ -236,15 +236,15 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
 
 std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
   char line[512];
-  std::snprintf(line, sizeof line,
-                "kf %3d frame %5d seg %d %s matches %4d 3d %4d inliers %4d new %4d ba %.2f px "
-                "err %6.2f cm rpe %5.2f deg cpu %5.1f ms (sift %.0f match %.0f pose %.0f ba %.0f)%s%s",
-                k.walk.index, k.frame, k.walk.segment, k.walk.registered ? "reg  " : "LOST ",
-                k.walk.matches, k.walk.matches_3d, k.walk.pnp_inliers, k.walk.new_points,
-                k.walk.bundle_rms_px, 100.0 * k.position_err_m, k.rpe_rot_deg, 1e3 * k.cpu_s,
-                1e3 * k.walk.sift_s, 1e3 * k.walk.matching_s, 1e3 * k.walk.pose_s,
-                1e3 * k.walk.bundle_s,
-                k.walk.failure.empty() ? "" : "  ", k.walk.failure.c_str());
+  std::snprintf(
+      line, sizeof line,
+      "kf %3d frame %5d seg %d %s matches %4d 3d %4d inliers %4d new %4d ba %.2f px "
+      "err %6.2f cm rpe %5.2f deg cpu %5.1f ms (sift %.0f match %.0f pose %.0f ba %.0f)%s%s",
+      k.walk.index, k.frame, k.walk.segment, k.walk.registered ? "reg  " : "LOST ", k.walk.matches,
+      k.walk.matches_3d, k.walk.pnp_inliers, k.walk.new_points, k.walk.bundle_rms_px,
+      100.0 * k.position_err_m, k.rpe_rot_deg, 1e3 * k.cpu_s, 1e3 * k.walk.sift_s,
+      1e3 * k.walk.matching_s, 1e3 * k.walk.pose_s, 1e3 * k.walk.bundle_s,
+      k.walk.failure.empty() ? "" : "  ", k.walk.failure.c_str());
   return std::string(line) + "\n";
 }
 
@@ -257,8 +257,8 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
                 "median %.3f deg, scale drift %.2f %%\n"
                 "  CPU per keyframe median %.1f ms (total %.2f s), %d map points\n",
                 s.frames, s.keyframes, s.registered, s.segments, s.evaluated_segment,
-                s.evaluated_keyframes, 100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m,
-                s.path_length_m, s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0,
+                s.evaluated_keyframes, 100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m, s.path_length_m,
+                s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0,
                 s.rpe_rot_deg_median, 100.0 * s.scale_drift, 1e3 * s.cpu_per_keyframe_s_median,
                 s.cpu_total_s, s.points);
   return text;
@@ -284,22 +284,23 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                {"points", s.points}};
   json keyframes = json::array();
   for (const WalkKeyframeEval& k : result.keyframes) {
-    keyframes.push_back({{"index", k.walk.index},
-                         {"frame", k.frame},
-                         {"timestamp", k.timestamp_s},
-                         {"image", k.image},
-                         {"segment", k.walk.segment},
-                         {"registered", k.walk.registered},
-                         {"failure", k.walk.failure},
-                         {"matches", k.walk.matches},
-                         {"matches_3d", k.walk.matches_3d},
-                         {"pnp_inliers", k.walk.pnp_inliers},
-                         {"new_points", k.walk.new_points},
-                         {"bundle_rms_px", k.walk.bundle_rms_px},
-                         {"cpu_s", k.cpu_s},
-                         {"has_gt", k.has_gt},
-                         {"position_err_m", k.in_evaluated_segment ? json(k.position_err_m) : json()},
-                         {"rpe_rot_deg", k.rpe_rot_deg >= 0 ? json(k.rpe_rot_deg) : json()}});
+    keyframes.push_back(
+        {{"index", k.walk.index},
+         {"frame", k.frame},
+         {"timestamp", k.timestamp_s},
+         {"image", k.image},
+         {"segment", k.walk.segment},
+         {"registered", k.walk.registered},
+         {"failure", k.walk.failure},
+         {"matches", k.walk.matches},
+         {"matches_3d", k.walk.matches_3d},
+         {"pnp_inliers", k.walk.pnp_inliers},
+         {"new_points", k.walk.new_points},
+         {"bundle_rms_px", k.walk.bundle_rms_px},
+         {"cpu_s", k.cpu_s},
+         {"has_gt", k.has_gt},
+         {"position_err_m", k.in_evaluated_segment ? json(k.position_err_m) : json()},
+         {"rpe_rot_deg", k.rpe_rot_deg >= 0 ? json(k.rpe_rot_deg) : json()}});
   }
   return JsonText(json{{"summary", {{"walk", walk}}}, {"keyframes", keyframes}}, 2) + "\n";
 }

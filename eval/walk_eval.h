@@ -26,21 +26,21 @@
 namespace mm {
 
 struct WalkEvalOptions {
-  std::filesystem::path list;   ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
-  bool every_frame = false;     ///< Every listed frame a keyframe; else the gate chooses.
-  int threads = 1;              ///< cv::setNumThreads for the run (timings are 1 thread).
-  double max_gt_dt_s = 0.1;     ///< Ground-truth extrapolation limit.
+  std::filesystem::path list;  ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
+  bool every_frame = false;    ///< Every listed frame a keyframe; else the gate chooses.
+  int threads = 1;             ///< cv::setNumThreads for the run (timings are 1 thread).
+  double max_gt_dt_s = 0.1;    ///< Ground-truth extrapolation limit.
   WalkOptions walk;
-  KeyframeGateOptions gate;     ///< Without every_frame.
+  KeyframeGateOptions gate;  ///< Without every_frame.
   [[nodiscard]] std::string Check() const;
 };
 
 struct WalkKeyframeEval {
-  WalkKeyframeSummary walk;     ///< What the walk did with it.
-  int frame = 0;                ///< Index in the list.
+  WalkKeyframeSummary walk;  ///< What the walk did with it.
+  int frame = 0;             ///< Index in the list.
   double timestamp_s = 0.0;
   std::string image;
-  double cpu_s = 0.0;           ///< Thread CPU time of AddKeyframe.
+  double cpu_s = 0.0;  ///< Thread CPU time of AddKeyframe.
   bool has_gt = false;
   bool in_evaluated_segment = false;
   double position_err_m = 0.0;  ///< After the alignment (evaluated segment only).
@@ -48,21 +48,21 @@ struct WalkKeyframeEval {
 };
 
 struct WalkEvalSummary {
-  int frames = 0;               ///< Frames read.
+  int frames = 0;  ///< Frames read.
   int keyframes = 0;
-  int registered = 0;           ///< Keyframes with a pose (a segment's first counts).
+  int registered = 0;  ///< Keyframes with a pose (a segment's first counts).
   int segments = 0;
-  int evaluated_segment = 0;    ///< The largest segment, which the figures below are of.
+  int evaluated_segment = 0;  ///< The largest segment, which the figures below are of.
   int evaluated_keyframes = 0;
   double ate_rmse_m = 0.0;
   double ate_max_m = 0.0;
-  double path_length_m = 0.0;   ///< Ground-truth path through the evaluated keyframes.
-  double sim3_scale = 0.0;      ///< Metres per map unit of the alignment.
+  double path_length_m = 0.0;  ///< Ground-truth path through the evaluated keyframes.
+  double sim3_scale = 0.0;     ///< Metres per map unit of the alignment.
   double rpe_rot_deg_median = 0.0;
-  double scale_drift = 0.0;     ///< 0 when a third has fewer than 3 keyframes.
+  double scale_drift = 0.0;  ///< 0 when a third has fewer than 3 keyframes.
   double cpu_per_keyframe_s_median = 0.0;
-  double cpu_total_s = 0.0;     ///< All frames, gate included.
-  int points = 0;               ///< Valid map points.
+  double cpu_total_s = 0.0;  ///< All frames, gate included.
+  int points = 0;            ///< Valid map points.
 };
 
 struct WalkEvalResult {

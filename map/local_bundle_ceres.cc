@@ -62,12 +62,11 @@ LocalBundleSummary AdjustLocalBundle(const LocalBundleOptions& options,
     ceres_problem.AddParameterBlock(translations[i].data(), 3);
   }
   for (const LocalBundleProblem::Observation& o : problem->observations) {
-    ceres_problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<Reprojection, 2, 4, 3, 3>(
-            new Reprojection(problem->k, o.pixel)),
-        &loss, rotations[static_cast<size_t>(o.pose)].coeffs().data(),
-        translations[static_cast<size_t>(o.pose)].data(),
-        problem->points_in_world[static_cast<size_t>(o.point)].data());
+    ceres_problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Reprojection, 2, 4, 3, 3>(
+                                       new Reprojection(problem->k, o.pixel)),
+                                   &loss, rotations[static_cast<size_t>(o.pose)].coeffs().data(),
+                                   translations[static_cast<size_t>(o.pose)].data(),
+                                   problem->points_in_world[static_cast<size_t>(o.point)].data());
   }
   for (size_t i = 0; i < num_poses; ++i) {
     if (problem->pose_fixed[i]) {

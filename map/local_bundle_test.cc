@@ -35,8 +35,8 @@ Scene MakeScene(unsigned seed, double noise_px) {
     Eigen::Isometry3d pose = s.truth[i];
     if (i >= 2) {
       pose.translation() += Eigen::Vector3d(0.03, -0.02, 0.04);
-      pose.linear() = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()).toRotationMatrix() *
-                      pose.linear();
+      pose.linear() =
+          Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitX()).toRotationMatrix() * pose.linear();
     }
     s.problem.cam_from_world.push_back(pose);
     s.problem.pose_fixed.push_back(i < 2);

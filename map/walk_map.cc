@@ -46,8 +46,9 @@ WalkMap::WalkMap(const Eigen::Matrix3d& K, WalkOptions options)
     : K_(K), options_(std::move(options)) {}
 
 Eigen::Vector2d WalkMap::Pixel(int keyframe, int keypoint) const {
-  const cv::Point2f& p =
-      keyframes_[static_cast<size_t>(keyframe)].features.keypoints[static_cast<size_t>(keypoint)].pt;
+  const cv::Point2f& p = keyframes_[static_cast<size_t>(keyframe)]
+                             .features.keypoints[static_cast<size_t>(keypoint)]
+                             .pt;
   return {p.x, p.y};
 }
 
@@ -190,8 +191,8 @@ bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
   summary->matches_3d = static_cast<int>(object.size());
   if (summary->matches_3d < options_.min_pnp_inliers) {
     summary->failure = "registration: " + std::to_string(summary->matches_3d) +
-                       " matches to map points (need " +
-                       std::to_string(options_.min_pnp_inliers) + ")";
+                       " matches to map points (need " + std::to_string(options_.min_pnp_inliers) +
+                       ")";
     return false;
   }
   cv::Mat k_cv;
@@ -282,8 +283,9 @@ int WalkMap::SearchByProjection(int keyframe) {
       if (x.z() <= 0) continue;
       const Eigen::Vector2d pixel = Project(K_, x);
       const WalkPoint::Observation& newest = point.observations.back();
-      const cv::Mat reference = keyframes_[static_cast<size_t>(newest.keyframe)]
-                                    .features.descriptors.row(newest.keypoint);
+      const cv::Mat reference =
+          keyframes_[static_cast<size_t>(newest.keyframe)].features.descriptors.row(
+              newest.keypoint);
       const int cx = static_cast<int>(pixel.x() / cell);
       const int cy = static_cast<int>(pixel.y() / cell);
       double best = std::numeric_limits<double>::infinity(), second = best;
@@ -312,8 +314,7 @@ int WalkMap::SearchByProjection(int keyframe) {
       if (std::isfinite(second) && best > ratio_sq * second) continue;
       // Lowe's ratio against the runner-up in the radius; a lone candidate must still be as
       // near as a ratio-passing match would be to the reference's own scale (its norm).
-      if (!std::isfinite(second) &&
-          best > ratio_sq * cv::norm(reference, cv::NORM_L2SQR)) {
+      if (!std::isfinite(second) && best > ratio_sq * cv::norm(reference, cv::NORM_L2SQR)) {
         continue;
       }
       point.observations.push_back({keyframe, best_keypoint});
@@ -355,8 +356,8 @@ int WalkMap::TriangulateWith(int keyframe, int other, const std::vector<Match>& 
     const Eigen::Vector2d pixel_k = Pixel(keyframe, m.index_b);
     const Eigen::Vector2d x_o = (k_inv * pixel_o.homogeneous()).hnormalized();
     const Eigen::Vector2d x_k = (k_inv * pixel_k.homogeneous()).hnormalized();
-    const Eigen::Vector3d p_o = RefineTriangulation(TriangulateLinear(x_o, x_k, pose), x_o, x_k,
-                                                    pose);
+    const Eigen::Vector3d p_o =
+        RefineTriangulation(TriangulateLinear(x_o, x_k, pose), x_o, x_k, pose);
     const Eigen::Vector3d p_k = k_from_o * p_o;
     if (p_o.z() <= 0 || p_k.z() <= 0) continue;
     const Eigen::Vector2d errors = ReprojectionErrorsPx(K_, p_o, p_k, pixel_o, pixel_k);
@@ -430,16 +431,16 @@ void WalkMap::AdjustWindow(WalkKeyframeSummary* summary) {
           (Project(K_, x) - Pixel(o.keyframe, o.keypoint)).norm() <= options_.max_reprojection_px) {
         kept.push_back(o);
       } else {
-        keyframes_[static_cast<size_t>(o.keyframe)].point_of_keypoint[static_cast<size_t>(
-            o.keypoint)] = -1;
+        keyframes_[static_cast<size_t>(o.keyframe)]
+            .point_of_keypoint[static_cast<size_t>(o.keypoint)] = -1;
       }
     }
     point.observations = std::move(kept);
     if (point.observations.size() < 2) {
       point.valid = false;
       for (const WalkPoint::Observation& o : point.observations) {
-        keyframes_[static_cast<size_t>(o.keyframe)].point_of_keypoint[static_cast<size_t>(
-            o.keypoint)] = -1;
+        keyframes_[static_cast<size_t>(o.keyframe)]
+            .point_of_keypoint[static_cast<size_t>(o.keypoint)] = -1;
       }
     }
   }

@@ -43,34 +43,34 @@ struct WalkOptions {
   /// point's newest observation, if it passes match.ratio against the runner-up there
   /// (ORB-SLAM's local map search, Mur-Artal et al. 2015, sec. V-D).
   double search_radius_px = 3.0;
-  double pnp_reprojection_px = 2.0;     ///< RANSAC inlier threshold of the absolute pose.
+  double pnp_reprojection_px = 2.0;  ///< RANSAC inlier threshold of the absolute pose.
   int pnp_iterations = 1000;
-  int min_pnp_inliers = 30;             ///< Fewer: the keyframe starts a new segment.
-  double max_reprojection_px = 2.0;     ///< New points and observations after the BA.
+  int min_pnp_inliers = 30;                  ///< Fewer: the keyframe starts a new segment.
+  double max_reprojection_px = 2.0;          ///< New points and observations after the BA.
   double min_triangulation_angle_deg = 1.0;  ///< New points seen under a smaller angle: dropped.
-  int window = 6;                       ///< Keyframes the local BA adjusts (two of them fixed).
+  int window = 6;  ///< Keyframes the local BA adjusts (two of them fixed).
   LocalBundleOptions bundle;
-  unsigned seed = 0;                    ///< Seeds the RANSACs (cv::theRNG for the PnP).
+  unsigned seed = 0;  ///< Seeds the RANSACs (cv::theRNG for the PnP).
   [[nodiscard]] std::string Check() const;
 };
 
 /// What happened to one keyframe.
 struct WalkKeyframeSummary {
-  int index = 0;             ///< In the order added.
-  int segment = 0;           ///< Its segment (0, 1, ...); a new one after a lost registration.
-  bool registered = false;   ///< Has a pose in its segment (a segment's first keyframe: true).
-  std::string failure;       ///< Why it was not registered to the previous keyframes.
-  int matches = 0;           ///< Descriptor matches to the newest keyframes.
-  int matches_3d = 0;        ///< Of them, with a map point (PnP input).
-  int projected_matches = 0; ///< Map points found by projection after the pose.
+  int index = 0;              ///< In the order added.
+  int segment = 0;            ///< Its segment (0, 1, ...); a new one after a lost registration.
+  bool registered = false;    ///< Has a pose in its segment (a segment's first keyframe: true).
+  std::string failure;        ///< Why it was not registered to the previous keyframes.
+  int matches = 0;            ///< Descriptor matches to the newest keyframes.
+  int matches_3d = 0;         ///< Of them, with a map point (PnP input).
+  int projected_matches = 0;  ///< Map points found by projection after the pose.
   int pnp_inliers = 0;
-  int new_points = 0;        ///< Triangulated with this keyframe.
+  int new_points = 0;          ///< Triangulated with this keyframe.
   double bundle_rms_px = 0.0;  ///< The local BA's final RMS (0 when it did not run).
-  double time_s = 0.0;       ///< CPU-bound wall time of AddKeyframe (SIFT included).
-  double sift_s = 0.0;       ///< Of it: SIFT,
-  double matching_s = 0.0;   ///< descriptor matching,
-  double pose_s = 0.0;       ///< the pose (two-view or PnP) and the new points,
-  double bundle_s = 0.0;     ///< the local bundle adjustment.
+  double time_s = 0.0;         ///< CPU-bound wall time of AddKeyframe (SIFT included).
+  double sift_s = 0.0;         ///< Of it: SIFT,
+  double matching_s = 0.0;     ///< descriptor matching,
+  double pose_s = 0.0;         ///< the pose (two-view or PnP) and the new points,
+  double bundle_s = 0.0;       ///< the local bundle adjustment.
 };
 
 struct WalkKeyframe {

@@ -5,7 +5,7 @@
 #     no evaluation code (those live in entry/ and eval/).
 # The link-level rule is mm_forbid_link in the top CMakeLists.txt.
 cmake_policy(SET CMP0007 NEW)
-set(all_layers "base/|scale/|dataset/|calib/|spool/|recon/|render/|session/|entry/|eval/|synth/|capture/|web/|app/|cli/")
+set(all_layers "base/|scale/|dataset/|calib/|spool/|recon/|map/|render/|session/|entry/|eval/|synth/|capture/|web/|app/|cli/")
 # folder : the folders it may include (besides itself)
 set(rules
   "base:"
@@ -14,10 +14,11 @@ set(rules
   "calib:base/"
   "spool:base/"
   "recon:base/|calib/"
+  "map:base/|calib/|recon/"
   "render:base/|recon/"
   "session:base/|calib/|recon/"
   "entry:base/|scale/|calib/|recon/|render/|spool/|session/"
-  "eval:base/|scale/|calib/|dataset/|recon/|render/|entry/|session/"
+  "eval:base/|scale/|calib/|dataset/|recon/|map/|render/|entry/|session/"
   "synth:base/|calib/|recon/|render/"
   "capture:base/|dataset/"
   "web:base/|spool/|entry/")

@@ -258,8 +258,8 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_flag("--captures", args->captures,
                 "Play the sequence through the daemon's gate and worker and press capture");
   auto* walk = cmd->add_flag("--walk", args->walk,
-                              "Run a walk (one map from many keyframes) over the sequence and "
-                              "compare its keyframe poses with the ground truth");
+                             "Run a walk (one map from many keyframes) over the sequence and "
+                             "compare its keyframe poses with the ground truth");
   cmd->add_flag("--every-frame", args->every_frame,
                 "With --walk: every listed frame is a keyframe (else the gate chooses)")
       ->needs(walk);
