@@ -42,8 +42,8 @@ std::string WalkOptions::Check() const {
   return {};
 }
 
-WalkMap::WalkMap(const Eigen::Matrix3d& K, WalkOptions options)
-    : K_(K), options_(std::move(options)) {}
+WalkMap::WalkMap(const Eigen::Matrix3d& K, const WalkOptions& options)
+    : K_(K), options_(options) {}
 
 Eigen::Vector2d WalkMap::Pixel(int keyframe, int keypoint) const {
   const cv::Point2f& p = keyframes_[static_cast<size_t>(keyframe)]

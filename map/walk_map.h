@@ -96,7 +96,7 @@ struct WalkPoint {
 class WalkMap {
  public:
   /// `K`: the undistorted camera's intrinsics.
-  WalkMap(const Eigen::Matrix3d& K, WalkOptions options);
+  WalkMap(const Eigen::Matrix3d& K, const WalkOptions& options);
 
   /// Adds a keyframe (8-bit gray, undistorted) and registers it.
   WalkKeyframeSummary AddKeyframe(const cv::Mat& gray, double timestamp_s);
