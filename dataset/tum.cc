@@ -157,4 +157,17 @@ double DirectionErrorDeg(const Eigen::Vector3d& t_est, const Eigen::Vector3d& t_
   return std::acos(c) * 180.0 / std::numbers::pi;
 }
 
+int NearestFrame(const std::vector<TumFrame>& frames, double timestamp_s, double max_dt_s) {
+  int best = -1;
+  double best_dt = max_dt_s;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const double dt = std::abs(frames[i].timestamp_s - timestamp_s);
+    if (dt <= best_dt) {
+      best_dt = dt;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
 }  // namespace mm

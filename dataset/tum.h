@@ -40,6 +40,11 @@ std::vector<TumFrame> ParseTumList(const std::string& text, const std::filesyste
 [[nodiscard]] std::string CheckTimeOrder(const std::vector<TumFrame>& frames, double max_gap_s,
                                          const std::string& list_name);
 
+/// Index of the frame nearest in time to `timestamp_s`, or -1 when none is within `max_dt_s`
+/// (ties: the later).
+[[nodiscard]] int NearestFrame(const std::vector<TumFrame>& frames, double timestamp_s,
+                               double max_dt_s);
+
 /// A rigid transform world_from_cam (TUM convention) at a time.
 struct TimedPose {
   double timestamp_s = 0.0;

@@ -56,5 +56,14 @@ TEST(Metrics, RotationAndDirectionErrors) {
   EXPECT_NEAR(DirectionErrorDeg(Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 2, 0)), 90.0, 1e-9);
 }
 
+TEST(TumList, NearestFrameWithinTheLimit) {
+  const std::vector<TumFrame> frames =
+      ParseTumList("1.00 a.png\n1.10 b.png\n1.30 c.png\n", "/d", "l");
+  EXPECT_EQ(NearestFrame(frames, 1.12, 0.05), 1);
+  EXPECT_EQ(NearestFrame(frames, 1.24, 0.15), 2);
+  EXPECT_EQ(NearestFrame(frames, 1.20, 0.05), -1);
+  EXPECT_EQ(NearestFrame({}, 1.0, 1.0), -1);
+}
+
 }  // namespace
 }  // namespace mm

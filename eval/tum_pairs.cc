@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <ctime>
 #include <nlohmann/json.hpp>
-#include <random>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <random>
 
 #include "calib/undistort.h"
 #include "dataset/tum.h"
@@ -26,20 +26,6 @@ double CpuSeconds() {
 
 bool HasDistortion(const BouguetCamera& c) {
   return std::any_of(c.kc.begin(), c.kc.end(), [](double k) { return k != 0.0; });
-}
-
-// Index of the list entry nearest in time to `t`, or -1 when none is within `max_dt`.
-int Nearest(const std::vector<TumFrame>& frames, double t, double max_dt) {
-  int best = -1;
-  double best_dt = max_dt;
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const double dt = std::abs(frames[i].timestamp_s - t);
-    if (dt <= best_dt) {
-      best_dt = dt;
-      best = static_cast<int>(i);
-    }
-  }
-  return best;
 }
 
 // Relative depth error of the triangulated points against a TUM depth map of frame A, after
@@ -282,7 +268,7 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       }
     }
     if (r.success && !depth_frames.empty()) {
-      const int d = Nearest(depth_frames, p.time_a_s, options.max_depth_dt_s);
+      const int d = NearestFrame(depth_frames, p.time_a_s, options.max_depth_dt_s);
       if (d >= 0) {
         cv::Mat depth =
             cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
@@ -304,11 +290,10 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     }
     result.pairs.push_back(p);
   }
-  if (!result.pairs.empty() &&
-      std::none_of(result.pairs.begin(), result.pairs.end(),
-                   [](const PairEval& p) { return p.has_gt; })) {
-    result.failure_reason = (dataset / "groundtruth.txt").string() +
-                            ": no pose within " + std::to_string(options.max_gt_dt_s) +
+  if (!result.pairs.empty() && std::none_of(result.pairs.begin(), result.pairs.end(),
+                                            [](const PairEval& p) { return p.has_gt; })) {
+    result.failure_reason = (dataset / "groundtruth.txt").string() + ": no pose within " +
+                            std::to_string(options.max_gt_dt_s) +
                             " s of any pair's frames; nothing to compare with";
     return result;
   }
@@ -396,15 +381,16 @@ std::string FormatSummary(const EvalSummary& s) {
 std::string EvalToJson(const EvalResult& result) {
   using json = nlohmann::json;
   const EvalSummary& s = result.summary;
-  json summary = {{"pairs", s.pairs},
-                  {"succeeded", s.succeeded},
-                  {"rot_err_deg", {{"median", s.rot_err_median_deg}, {"p90", s.rot_err_p90_deg}}},
-                  {"trans_err_deg",
-                   {{"median", s.trans_err_median_deg}, {"p90", s.trans_err_p90_deg}}},
-                  {"time_s", {{"median", s.time_median_s},
-                              {"median_after_b", s.time_after_b_median_s},
-                              {"cpu_median", s.cpu_median_s},
-                              {"cpu_median_after_b", s.cpu_after_b_median_s}}}};
+  json summary = {
+      {"pairs", s.pairs},
+      {"succeeded", s.succeeded},
+      {"rot_err_deg", {{"median", s.rot_err_median_deg}, {"p90", s.rot_err_p90_deg}}},
+      {"trans_err_deg", {{"median", s.trans_err_median_deg}, {"p90", s.trans_err_p90_deg}}},
+      {"time_s",
+       {{"median", s.time_median_s},
+        {"median_after_b", s.time_after_b_median_s},
+        {"cpu_median", s.cpu_median_s},
+        {"cpu_median_after_b", s.cpu_after_b_median_s}}}};
   if (s.depth_pairs > 0) {
     summary["point_depth_rel_err"] = {{"median", s.depth_rel_err_median},
                                       {"within_10pct", s.depth_within_10pct},
@@ -419,11 +405,12 @@ std::string EvalToJson(const EvalResult& result) {
                         {"rel_err_p90", s.scale_rel_err_p90}};
   }
   if (s.mesh_pairs > 0) {
-    summary["mesh"] = {{"coverage", s.mesh_coverage},
-                       {"depth_rel_err", {{"median", s.mesh_depth_rel_err_median},
-                                          {"p90", s.mesh_depth_rel_err_p90}}},
-                       {"flying", s.mesh_flying},
-                       {"pairs", s.mesh_pairs}};
+    summary["mesh"] = {
+        {"coverage", s.mesh_coverage},
+        {"depth_rel_err",
+         {{"median", s.mesh_depth_rel_err_median}, {"p90", s.mesh_depth_rel_err_p90}}},
+        {"flying", s.mesh_flying},
+        {"pairs", s.mesh_pairs}};
   }
   json pairs = json::array();
   for (const PairEval& p : result.pairs) {
@@ -482,8 +469,8 @@ std::string EvalToJson(const EvalResult& result) {
     }
     if (p.mesh.valid) {
       j["mesh"] = {{"coverage", p.mesh.coverage},
-                   {"depth_rel_err", {{"median", p.mesh.depth_rel_err_median},
-                                      {"p90", p.mesh.depth_rel_err_p90}}},
+                   {"depth_rel_err",
+                    {{"median", p.mesh.depth_rel_err_median}, {"p90", p.mesh.depth_rel_err_p90}}},
                    {"flying", p.mesh.flying},
                    {"mode", p.mesh.mode},
                    {"vertices", p.mesh.vertices},

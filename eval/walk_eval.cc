@@ -71,13 +71,16 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     result.failure_reason = missing;
     return result;
   }
-  std::vector<TumFrame> frames;
+  std::vector<TumFrame> frames, depth_frames;
   std::optional<Trajectory> trajectory;
   try {
     std::filesystem::path list = options.list.empty() ? dataset / "rgb.txt" : options.list;
     if (list.is_relative() && !std::filesystem::exists(list)) list = dataset / list;
     frames = ReadTumList(list);
     trajectory = Trajectory::Read(dataset / "groundtruth.txt");
+    if (std::filesystem::exists(dataset / "depth.txt")) {
+      depth_frames = ReadTumList(dataset / "depth.txt");
+    }
   } catch (const DatasetError& e) {
     result.failure_reason = e.what();
     return result;
@@ -223,6 +226,45 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       s.ate_max_m = std::max(s.ate_max_m, err);
     }
     s.ate_rmse_m = std::sqrt(sum / static_cast<double>(ids.size()));
+    std::vector<double> depth_errors;
+    for (int id : ids) {
+      WalkKeyframeEval& k = result.keyframes[static_cast<size_t>(id)];
+      const int d = NearestFrame(depth_frames, k.timestamp_s, options.max_depth_dt_s);
+      if (d < 0) continue;
+      cv::Mat depth =
+          cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
+      if (depth.type() != CV_16UC1 || depth.cols != sized.width || depth.rows != sized.height) {
+        continue;
+      }
+      // The keyframes went through the undistorted camera: the depth map too, unblended.
+      if (undistorter) depth = undistorter->ApplyNearest(depth);
+      const WalkKeyframe& keyframe = map->keyframes()[static_cast<size_t>(id)];
+      std::vector<double> errors;
+      for (size_t i = 0; i < keyframe.point_of_keypoint.size(); ++i) {
+        const int point = keyframe.point_of_keypoint[i];
+        if (point < 0 || !map->points()[static_cast<size_t>(point)].valid) continue;
+        const cv::Point2f& pixel = keyframe.features.keypoints[i].pt;
+        const int u = static_cast<int>(std::lround(pixel.x));
+        const int v = static_cast<int>(std::lround(pixel.y));
+        if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows) continue;
+        const double truth_m = depth.at<uint16_t>(v, u) / 5000.0;
+        if (truth_m <= 0) continue;
+        const double z = (keyframe.cam_from_segment *
+                          map->points()[static_cast<size_t>(point)].position_in_segment)
+                             .z();
+        errors.push_back(std::abs(s.sim3_scale * z - truth_m) / truth_m);
+      }
+      if (errors.empty()) continue;
+      k.depth_points = static_cast<int>(errors.size());
+      k.point_depth_rel_err_median = MedianOf(errors);
+      ++s.depth_keyframes;
+      depth_errors.insert(depth_errors.end(), errors.begin(), errors.end());
+    }
+    if (!depth_errors.empty()) {
+      s.depth_points = static_cast<int>(depth_errors.size());
+      s.point_depth_rel_err_median = MedianOf(depth_errors);
+      s.point_depth_rel_err_p90 = QuantileOf(depth_errors, 0.9);
+    }
     const size_t third = ids.size() / 3;
     const std::vector<int> first(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(third));
     const std::vector<int> last(ids.end() - static_cast<std::ptrdiff_t>(third), ids.end());
@@ -250,17 +292,20 @@ std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
 
 std::string FormatWalkSummary(const WalkEvalSummary& s) {
   char text[1024];
-  std::snprintf(text, sizeof text,
-                "walk: %d frames, %d keyframes, %d registered, %d segment(s); evaluated segment "
-                "%d: %d keyframes\n"
-                "  ATE RMSE %.2f cm (max %.2f cm) over a %.2f m path (%.3f %%), RPE rotation "
-                "median %.3f deg, scale drift %.2f %%\n"
-                "  CPU per keyframe median %.1f ms (total %.2f s), %d map points\n",
-                s.frames, s.keyframes, s.registered, s.segments, s.evaluated_segment,
-                s.evaluated_keyframes, 100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m, s.path_length_m,
-                s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0,
-                s.rpe_rot_deg_median, 100.0 * s.scale_drift, 1e3 * s.cpu_per_keyframe_s_median,
-                s.cpu_total_s, s.points);
+  std::snprintf(
+      text, sizeof text,
+      "walk: %d frames, %d keyframes, %d registered, %d segment(s); evaluated segment "
+      "%d: %d keyframes\n"
+      "  ATE RMSE %.2f cm (max %.2f cm) over a %.2f m path (%.3f %%), RPE rotation "
+      "median %.3f deg, scale drift %.2f %%\n"
+      "  CPU per keyframe median %.1f ms (total %.2f s), %d map points; their depth at %d "
+      "keyframes: median %.2f %%, p90 %.2f %% (%d observations)\n",
+      s.frames, s.keyframes, s.registered, s.segments, s.evaluated_segment, s.evaluated_keyframes,
+      100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m, s.path_length_m,
+      s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0, s.rpe_rot_deg_median,
+      100.0 * s.scale_drift, 1e3 * s.cpu_per_keyframe_s_median, s.cpu_total_s, s.points,
+      s.depth_keyframes, 100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90,
+      s.depth_points);
   return text;
 }
 
@@ -281,7 +326,12 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                {"scale_drift", s.scale_drift},
                {"cpu_per_keyframe_s_median", s.cpu_per_keyframe_s_median},
                {"cpu_total_s", s.cpu_total_s},
-               {"points", s.points}};
+               {"points", s.points},
+               {"point_depth_rel_err",
+                {{"median", s.point_depth_rel_err_median},
+                 {"p90", s.point_depth_rel_err_p90},
+                 {"points", s.depth_points},
+                 {"keyframes", s.depth_keyframes}}}};
   json keyframes = json::array();
   for (const WalkKeyframeEval& k : result.keyframes) {
     keyframes.push_back(
@@ -300,7 +350,9 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
          {"cpu_s", k.cpu_s},
          {"has_gt", k.has_gt},
          {"position_err_m", k.in_evaluated_segment ? json(k.position_err_m) : json()},
-         {"rpe_rot_deg", k.rpe_rot_deg >= 0 ? json(k.rpe_rot_deg) : json()}});
+         {"rpe_rot_deg", k.rpe_rot_deg >= 0 ? json(k.rpe_rot_deg) : json()},
+         {"point_depth_rel_err_median",
+          k.point_depth_rel_err_median >= 0 ? json(k.point_depth_rel_err_median) : json()}});
   }
   return JsonText(json{{"summary", {{"walk", walk}}}, {"keyframes", keyframes}}, 2) + "\n";
 }

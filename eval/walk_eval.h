@@ -26,10 +26,11 @@
 namespace mm {
 
 struct WalkEvalOptions {
-  std::filesystem::path list;  ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
-  bool every_frame = false;    ///< Every listed frame a keyframe; else the gate chooses.
-  int threads = 1;             ///< cv::setNumThreads for the run (timings are 1 thread).
-  double max_gt_dt_s = 0.1;    ///< Ground-truth extrapolation limit.
+  std::filesystem::path list;    ///< Image list; empty: <dataset>/rgb.txt. Relative: to dataset.
+  bool every_frame = false;      ///< Every listed frame a keyframe; else the gate chooses.
+  int threads = 1;               ///< cv::setNumThreads for the run (timings are 1 thread).
+  double max_gt_dt_s = 0.1;      ///< Ground-truth extrapolation limit.
+  double max_depth_dt_s = 0.02;  ///< A depth map belongs to a keyframe within this time.
   WalkOptions walk;
   KeyframeGateOptions gate;  ///< Without every_frame.
   [[nodiscard]] std::string Check() const;
@@ -43,8 +44,10 @@ struct WalkKeyframeEval {
   double cpu_s = 0.0;  ///< Thread CPU time of AddKeyframe.
   bool has_gt = false;
   bool in_evaluated_segment = false;
-  double position_err_m = 0.0;  ///< After the alignment (evaluated segment only).
-  double rpe_rot_deg = -1.0;    ///< To the previous keyframe of its segment; -1: none.
+  double position_err_m = 0.0;               ///< After the alignment (evaluated segment only).
+  double rpe_rot_deg = -1.0;                 ///< To the previous keyframe of its segment; -1: none.
+  int depth_points = 0;                      ///< Its map points compared with its depth map.
+  double point_depth_rel_err_median = -1.0;  ///< -1: no depth map.
 };
 
 struct WalkEvalSummary {
@@ -63,6 +66,13 @@ struct WalkEvalSummary {
   double cpu_per_keyframe_s_median = 0.0;
   double cpu_total_s = 0.0;  ///< All frames, gate included.
   int points = 0;            ///< Valid map points.
+  /// The map points' depth in each evaluated keyframe that has a depth map (depth.txt,
+  /// value / 5000 m), times the alignment's scale, against that depth: the median over all
+  /// observations of |s z - d| / d (0 points: no depth maps).
+  int depth_points = 0;
+  int depth_keyframes = 0;
+  double point_depth_rel_err_median = 0.0;
+  double point_depth_rel_err_p90 = 0.0;
 };
 
 struct WalkEvalResult {

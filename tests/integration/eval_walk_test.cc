@@ -75,6 +75,12 @@ TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   EXPECT_GT(path, 9.0);
   EXPECT_LE(w["ate_rmse_m"].get<double>(), 0.005 * path);
   EXPECT_LE(w["scale_drift"].get<double>(), 0.02);
+  // The map points' depth in every keyframe against the rendered depth (scaled by the
+  // alignment): measured median 0.25 %, p90 1.3 % (seed 1).
+  const json& depth = w["point_depth_rel_err"];
+  EXPECT_EQ(depth["keyframes"].get<int>(), w["keyframes"].get<int>());
+  EXPECT_LE(depth["median"].get<double>(), 0.01);
+  EXPECT_LE(depth["p90"].get<double>(), 0.05);
   fs::remove_all(dir);
 }
 
