@@ -4,8 +4,8 @@
 //   segment's frame (its first keyframe) and its scale (their baseline = 1).
 //   Each later keyframe: SIFT matched against the newest keyframes, 2-D/3-D matches to their
 //   points, the absolute pose by RANSAC over SQPnP (Terzakis & Lourakis 2020, OpenCV's
-//   solvePnPRansac) and LM on the inliers; new points triangulated (DLT, checked for
-//   cheirality, reprojection and angle) from the matches to the previous keyframe; a local
+//   solvePnPRansac) and LM on the inliers; the window's other points found by projection;
+//   new points triangulated (DLT, checked for cheirality, reprojection and angle); a local
 //   bundle adjustment over a sliding window (map/local_bundle.h: the window's two oldest
 //   keyframes fixed, which fixes the gauge and the scale).
 //   A keyframe that cannot be registered starts a new segment: a wrong pose is never folded
