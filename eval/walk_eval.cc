@@ -167,7 +167,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     WalkKeyframeEval& k = result.keyframes[i];
     cpu.push_back(k.cpu_s);
     if (!k.walk.registered) continue;
-    ++s.registered;
+    if (k.walk.failure.empty()) ++s.registered;  // Not a new segment after a failure.
     const std::optional<Eigen::Isometry3d> gt =
         trajectory->WorldFromCamAt(k.timestamp_s, options.max_gt_dt_s);
     if (!gt) continue;
@@ -282,7 +282,8 @@ std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
       line, sizeof line,
       "kf %3d frame %5d seg %d %s matches %4d 3d %4d inliers %4d new %4d ba %.2f px "
       "err %6.2f cm rpe %5.2f deg cpu %5.1f ms (sift %.0f match %.0f pose %.0f ba %.0f)%s%s",
-      k.walk.index, k.frame, k.walk.segment, k.walk.registered ? "reg  " : "LOST ", k.walk.matches,
+      k.walk.index, k.frame, k.walk.segment,
+      !k.walk.registered ? "LOST " : (k.walk.failure.empty() ? "reg  " : "NEW  "), k.walk.matches,
       k.walk.matches_3d, k.walk.pnp_inliers, k.walk.new_points, k.walk.bundle_rms_px,
       100.0 * k.position_err_m, k.rpe_rot_deg, 1e3 * k.cpu_s, 1e3 * k.walk.sift_s,
       1e3 * k.walk.matching_s, 1e3 * k.walk.pose_s, 1e3 * k.walk.bundle_s,

@@ -53,7 +53,9 @@ struct WalkKeyframeEval {
 struct WalkEvalSummary {
   int frames = 0;  ///< Frames read.
   int keyframes = 0;
-  int registered = 0;  ///< Keyframes with a pose (a segment's first counts).
+  /// Keyframes registered to the map they were added to: all but those that started a new
+  /// segment after a failed registration (the walk's first keyframe counts).
+  int registered = 0;
   int segments = 0;
   int evaluated_segment = 0;  ///< The largest segment, which the figures below are of.
   int evaluated_keyframes = 0;

@@ -84,5 +84,61 @@ TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   fs::remove_all(dir);
 }
 
+// A keyframe from somewhere else (a corridor frame in the middle of the TUM office keyframes)
+// cannot be registered: it must start a new segment, never be folded in with a wrong pose.
+TEST(EvalWalk, AForeignKeyframeStartsANewSegment) {
+  ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
+  const fs::path data = RequireSharedData("tum_fr3_long_office_household");
+  const fs::path dir = FreshTempDir("eval_walk_foreign");
+  int status = 0;
+  const std::string out = RunCommand(
+      Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() + " --frames 1",
+      &status);
+  ASSERT_EQ(status, 0) << out;
+  std::string foreign;
+  {
+    std::ifstream in(dir / "seq" / "rgb.txt");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && line[0] != '#') foreign = line.substr(line.find(' ') + 1);
+    }
+  }
+  ASSERT_FALSE(foreign.empty());
+  // Keyframes 0-9 of the office, the corridor frame, then 10-16; absolute paths.
+  {
+    std::ifstream in(data / "keyframes_1hz.txt");
+    std::ofstream list(dir / "list.txt");
+    std::string line;
+    int n = 0;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      const std::string timestamp = line.substr(0, line.find(' '));
+      list << timestamp << " " << (data / line.substr(line.find(' ') + 1)).string() << "\n";
+      if (++n == 10) {
+        list << std::stod(timestamp) + 0.5 << " " << (dir / "seq" / foreign).string() << "\n";
+      }
+    }
+  }
+  const json r = Eval("--every-frame --dataset " + data.string() +
+                          " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list " +
+                          (dir / "list.txt").string(),
+                      dir / "walk.json");
+  const json& w = r["summary"]["walk"];
+  std::cout << "[ figures  ] " << w.dump() << "\n";
+  ASSERT_EQ(w["keyframes"].get<int>(), 18);
+  const json& corridor = r["keyframes"][10];
+  EXPECT_EQ(corridor["segment"].get<int>(), 1) << corridor.dump();
+  EXPECT_FALSE(corridor["failure"].get<std::string>().empty()) << corridor.dump();
+  EXPECT_GE(w["segments"].get<int>(), 2);
+  // The corridor frame and the office keyframe after it each start a segment (no
+  // relocalization into an earlier segment yet): 16 of 18 registered.
+  EXPECT_EQ(w["registered"].get<int>(), 18 - (w["segments"].get<int>() - 1));
+  // The first segment is the office's first ten keyframes, as accurate as in the whole walk.
+  EXPECT_EQ(w["evaluated_segment"].get<int>(), 0);
+  EXPECT_EQ(w["evaluated_keyframes"].get<int>(), 10);
+  EXPECT_LE(w["ate_rmse_m"].get<double>(), 0.009);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mm::test
