@@ -24,10 +24,6 @@ double CpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-bool HasDistortion(const BouguetCamera& c) {
-  return std::any_of(c.kc.begin(), c.kc.end(), [](double k) { return k != 0.0; });
-}
-
 // Relative depth error of the triangulated points against a TUM depth map of frame A, after
 // one median scale factor (the reconstruction is up to scale).
 void CompareDepth(const PairReconstruction& r, const cv::Mat& depth16, PairEval* out) {
@@ -183,7 +179,7 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       sized.width = image.cols;
       sized.height = image.rows;
     }
-    if (HasDistortion(sized)) {
+    if (sized.HasDistortion()) {
       if (!undistorter) undistorter.emplace(sized);
       used = &undistorter->output_camera();
       return undistorter->Apply(image);

@@ -27,10 +27,6 @@ double ThreadCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-bool HasDistortion(const BouguetCamera& c) {
-  return std::any_of(c.kc.begin(), c.kc.end(), [](double k) { return k != 0.0; });
-}
-
 // Scale of the Sim(3) that aligns the estimated centres of `ids` to their ground truth; 0 with
 // fewer than 3.
 double ScaleOf(const std::vector<int>& ids, const std::vector<Eigen::Vector3d>& estimated,
@@ -126,7 +122,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
                               std::to_string(sized.height);
       return result;
     }
-    if (HasDistortion(sized)) {
+    if (sized.HasDistortion()) {
       if (!undistorter) undistorter.emplace(sized);
       image = undistorter->Apply(image);
     }
