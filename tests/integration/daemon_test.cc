@@ -557,6 +557,18 @@ TEST(Daemon, HooksRunAfterCapturesAndOneThatHangsNeverDelaysTheNext) {
   }
   const std::string log = daemon.log();
   EXPECT_NE(log.find("killed at its 1 s limit (killed by signal 9"), std::string::npos) << log;
+  // The second entry's hook starts once its entry is committed, which the trigger's reply
+  // can precede: wait (bounded) until both hooks have written their line.
+  const auto recorded_all = [&] {
+    const std::string text = ReadAll(daemon.dir() / "entries.txt");
+    return std::all_of(entries.begin(), entries.end(), [&](const std::string& entry) {
+      return text.find(entry + "\n") != std::string::npos;
+    });
+  };
+  const auto hooks_deadline = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < hooks_deadline && !recorded_all()) {
+    std::this_thread::sleep_for(100ms);
+  }
   std::string recorded = ReadAll(daemon.dir() / "entries.txt");
   for (const std::string& entry : entries) {
     EXPECT_NE(recorded.find(entry + "\n"), std::string::npos) << recorded;
