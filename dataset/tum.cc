@@ -170,4 +170,17 @@ int NearestFrame(const std::vector<TumFrame>& frames, double timestamp_s, double
   return best;
 }
 
+TumSequence ReadTumSequence(const std::filesystem::path& folder,
+                            const std::filesystem::path& list) {
+  std::filesystem::path list_file = list.empty() ? folder / "rgb.txt" : list;
+  if (list_file.is_relative() && !std::filesystem::exists(list_file)) list_file = folder / list;
+  TumSequence sequence;
+  sequence.frames = ReadTumList(list_file);
+  sequence.trajectory = Trajectory::Read(folder / "groundtruth.txt");
+  if (std::filesystem::exists(folder / "depth.txt")) {
+    sequence.depth_frames = ReadTumList(folder / "depth.txt");
+  }
+  return sequence;
+}
+
 }  // namespace mm

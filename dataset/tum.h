@@ -72,6 +72,20 @@ class Trajectory {
   std::vector<TimedPose> poses_;
 };
 
+/// A TUM folder read for an evaluation: its image list, depth.txt when there is one, and
+/// groundtruth.txt.
+struct TumSequence {
+  std::vector<TumFrame> frames;
+  std::vector<TumFrame> depth_frames;  ///< Empty without depth.txt.
+  Trajectory trajectory{{}};
+};
+
+/// Reads `folder`'s image list (`list`; empty: rgb.txt; a relative path that does not exist
+/// from the working directory is taken relative to `folder`), its depth.txt when present and
+/// its groundtruth.txt.
+/// \throws DatasetError naming file and line.
+TumSequence ReadTumSequence(const std::filesystem::path& folder, const std::filesystem::path& list);
+
 /// Relative pose of a pair: cam_b_from_cam_a = inv(world_from_b) * world_from_a.
 Eigen::Isometry3d CamBFromCamA(const Eigen::Isometry3d& world_from_a,
                                const Eigen::Isometry3d& world_from_b);

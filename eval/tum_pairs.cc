@@ -147,8 +147,7 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     result.failure_reason = "options: " + problem;
     return result;
   }
-  std::vector<TumFrame> frames, depth_frames;
-  std::optional<Trajectory> trajectory;
+  TumSequence sequence;
   // An evaluation without ground truth has nothing to compare with: without this, every error
   // printed 0.000 deg and every reconstructed pair counted as a success.
   if (std::string missing = MissingGroundTruth(dataset); !missing.empty()) {
@@ -156,17 +155,14 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     return result;
   }
   try {
-    std::filesystem::path list = options.list.empty() ? dataset / "rgb.txt" : options.list;
-    if (list.is_relative() && !std::filesystem::exists(list)) list = dataset / list;
-    frames = ReadTumList(list);
-    trajectory = Trajectory::Read(dataset / "groundtruth.txt");
-    if (std::filesystem::exists(dataset / "depth.txt")) {
-      depth_frames = ReadTumList(dataset / "depth.txt");
-    }
+    sequence = ReadTumSequence(dataset, options.list);
   } catch (const DatasetError& e) {
     result.failure_reason = e.what();
     return result;
   }
+  const std::vector<TumFrame>& frames = sequence.frames;
+  const std::vector<TumFrame>& depth_frames = sequence.depth_frames;
+  const Trajectory& trajectory = sequence.trajectory;
   if (options.threads > 0) cv::setNumThreads(options.threads);
 
   BouguetCamera sized = camera;
@@ -226,41 +222,39 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     p.times = r.times;
     p.geometry_times = r.geometry.times;
     p.time_two_images_s = r.times.total_s();
-    if (trajectory) {
-      const auto wa = trajectory->WorldFromCamAt(p.time_a_s, options.max_gt_dt_s);
-      const auto wb = trajectory->WorldFromCamAt(p.time_b_s, options.max_gt_dt_s);
+    const auto wa = trajectory.WorldFromCamAt(p.time_a_s, options.max_gt_dt_s);
+    const auto wb = trajectory.WorldFromCamAt(p.time_b_s, options.max_gt_dt_s);
+    if (wa && wb) {
+      const Eigen::Isometry3d gt = CamBFromCamA(*wa, *wb);
+      p.has_gt = true;
+      p.gt_rotation_deg = RotationErrorDeg(Eigen::Matrix3d::Identity(), gt.linear());
+      p.gt_baseline_m = gt.translation().norm();
+      p.rot_err_deg = RotationErrorDeg(r.geometry.rotation, gt.linear());
+      p.trans_err_deg = DirectionErrorDeg(r.geometry.translation, gt.translation());
+    }
+    if (r.success && options.scale.source != ScaleSource::kNone) {
+      p.has_scale = true;
+      ScaleInputs in;
+      in.baseline_units = r.geometry.translation.norm();
+      in.points_in_a = r.geometry.points_in_cam_a;
       if (wa && wb) {
-        const Eigen::Isometry3d gt = CamBFromCamA(*wa, *wb);
-        p.has_gt = true;
-        p.gt_rotation_deg = RotationErrorDeg(Eigen::Matrix3d::Identity(), gt.linear());
-        p.gt_baseline_m = gt.translation().norm();
-        p.rot_err_deg = RotationErrorDeg(r.geometry.rotation, gt.linear());
-        p.trans_err_deg = DirectionErrorDeg(r.geometry.translation, gt.translation());
+        // The robot's odometry, simulated: the true camera centres with noise.
+        std::mt19937 rng(options.odom_seed + static_cast<uint32_t>(p.index_a));
+        std::normal_distribution<double> noise(0.0, options.odom_noise_m);
+        const auto noisy = [&](const Eigen::Vector3d& c) {
+          return options.odom_noise_m > 0
+                     ? Eigen::Vector3d(c + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
+                     : c;
+        };
+        in.odometry_a_m = noisy(wa->translation());
+        in.odometry_b_m = noisy(wb->translation());
+        p.true_metres_per_unit = p.gt_baseline_m / in.baseline_units;
+      } else {
+        in.odometry_why_not = "no ground truth to simulate odometry from";
       }
-      if (r.success && options.scale.source != ScaleSource::kNone) {
-        p.has_scale = true;
-        ScaleInputs in;
-        in.baseline_units = r.geometry.translation.norm();
-        in.points_in_a = r.geometry.points_in_cam_a;
-        if (wa && wb) {
-          // The robot's odometry, simulated: the true camera centres with noise.
-          std::mt19937 rng(options.odom_seed + static_cast<uint32_t>(p.index_a));
-          std::normal_distribution<double> noise(0.0, options.odom_noise_m);
-          const auto noisy = [&](const Eigen::Vector3d& c) {
-            return options.odom_noise_m > 0
-                       ? Eigen::Vector3d(c + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
-                       : c;
-          };
-          in.odometry_a_m = noisy(wa->translation());
-          in.odometry_b_m = noisy(wb->translation());
-          p.true_metres_per_unit = p.gt_baseline_m / in.baseline_units;
-        } else {
-          in.odometry_why_not = "no ground truth to simulate odometry from";
-        }
-        p.scale = EstimateScale(in, options.scale);
-        if (p.scale.scaled() && p.true_metres_per_unit > 0) {
-          p.scale_rel_err = std::abs(p.scale.metres_per_unit / p.true_metres_per_unit - 1.0);
-        }
+      p.scale = EstimateScale(in, options.scale);
+      if (p.scale.scaled() && p.true_metres_per_unit > 0) {
+        p.scale_rel_err = std::abs(p.scale.metres_per_unit / p.true_metres_per_unit - 1.0);
       }
     }
     if (r.success && !depth_frames.empty()) {

@@ -67,20 +67,16 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     result.failure_reason = missing;
     return result;
   }
-  std::vector<TumFrame> frames, depth_frames;
-  std::optional<Trajectory> trajectory;
+  TumSequence sequence;
   try {
-    std::filesystem::path list = options.list.empty() ? dataset / "rgb.txt" : options.list;
-    if (list.is_relative() && !std::filesystem::exists(list)) list = dataset / list;
-    frames = ReadTumList(list);
-    trajectory = Trajectory::Read(dataset / "groundtruth.txt");
-    if (std::filesystem::exists(dataset / "depth.txt")) {
-      depth_frames = ReadTumList(dataset / "depth.txt");
-    }
+    sequence = ReadTumSequence(dataset, options.list);
   } catch (const DatasetError& e) {
     result.failure_reason = e.what();
     return result;
   }
+  const std::vector<TumFrame>& frames = sequence.frames;
+  const std::vector<TumFrame>& depth_frames = sequence.depth_frames;
+  const Trajectory& trajectory = sequence.trajectory;
   if (frames.empty()) {
     result.failure_reason = "no frames in the list";
     return result;
@@ -165,7 +161,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     if (!k.walk.registered) continue;
     if (k.walk.failure.empty()) ++s.registered;  // Not a new segment after a failure.
     const std::optional<Eigen::Isometry3d> gt =
-        trajectory->WorldFromCamAt(k.timestamp_s, options.max_gt_dt_s);
+        trajectory.WorldFromCamAt(k.timestamp_s, options.max_gt_dt_s);
     if (!gt) continue;
     k.has_gt = true;
     world_from_cam_gt[i] = *gt;
