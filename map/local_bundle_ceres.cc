@@ -5,30 +5,9 @@
 #include <cmath>
 
 #include "map/local_bundle.h"
+#include "recon/reprojection_residual.h"
 
 namespace mm {
-namespace {
-
-// Pixel residual of a world point seen by a camera cam_from_world = (q, t), q as Eigen
-// (x, y, z, w).
-struct Reprojection {
-  Reprojection(const Eigen::Matrix3d& k, const Eigen::Vector2d& pixel) : k_(k), pixel_(pixel) {}
-  template <typename T>
-  bool operator()(const T* q, const T* t, const T* p, T* r) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q);
-    const Eigen::Matrix<T, 3, 1> x = rotation * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(p) +
-                                     Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t);
-    const T u = x[0] / x[2];
-    const T v = x[1] / x[2];
-    r[0] = T(k_(0, 0)) * u + T(k_(0, 1)) * v + T(k_(0, 2)) - T(pixel_.x());
-    r[1] = T(k_(1, 1)) * v + T(k_(1, 2)) - T(pixel_.y());
-    return true;
-  }
-  Eigen::Matrix3d k_;
-  Eigen::Vector2d pixel_;
-};
-
-}  // namespace
 
 std::string LocalBundleOptions::Check() const {
   if (!(huber_px > 0)) return "huber_px: must be > 0";
@@ -62,8 +41,8 @@ LocalBundleSummary AdjustLocalBundle(const LocalBundleOptions& options,
     ceres_problem.AddParameterBlock(translations[i].data(), 3);
   }
   for (const LocalBundleProblem::Observation& o : problem->observations) {
-    ceres_problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Reprojection, 2, 4, 3, 3>(
-                                       new Reprojection(problem->k, o.pixel)),
+    ceres_problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PoseReprojection, 2, 4, 3, 3>(
+                                       new PoseReprojection(problem->k, o.pixel)),
                                    &loss, rotations[static_cast<size_t>(o.pose)].coeffs().data(),
                                    translations[static_cast<size_t>(o.pose)].data(),
                                    problem->points_in_world[static_cast<size_t>(o.point)].data());

@@ -8,44 +8,9 @@
 #include <cmath>
 
 #include "recon/bundle_adjustment.h"
+#include "recon/reprojection_residual.h"
 
 namespace mm {
-namespace {
-
-// Pixel reprojection residual of a point (in camera A) seen by camera A (identity pose).
-struct ResidualA {
-  ResidualA(const Eigen::Matrix3d& k, const Eigen::Vector2d& obs) : k_(k), obs_(obs) {}
-  template <typename T>
-  bool operator()(const T* p, T* r) const {
-    const T u = p[0] / p[2];
-    const T v = p[1] / p[2];
-    r[0] = T(k_(0, 0)) * u + T(k_(0, 1)) * v + T(k_(0, 2)) - T(obs_.x());
-    r[1] = T(k_(1, 1)) * v + T(k_(1, 2)) - T(obs_.y());
-    return true;
-  }
-  Eigen::Matrix3d k_;
-  Eigen::Vector2d obs_;
-};
-
-// Same for camera B: X_b = R(q) X_a + t, q as Eigen (x, y, z, w).
-struct ResidualB {
-  ResidualB(const Eigen::Matrix3d& k, const Eigen::Vector2d& obs) : k_(k), obs_(obs) {}
-  template <typename T>
-  bool operator()(const T* q, const T* t, const T* p, T* r) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> quat(q);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> pa(p);
-    const Eigen::Matrix<T, 3, 1> pb = quat * pa + Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t);
-    const T u = pb[0] / pb[2];
-    const T v = pb[1] / pb[2];
-    r[0] = T(k_(0, 0)) * u + T(k_(0, 1)) * v + T(k_(0, 2)) - T(obs_.x());
-    r[1] = T(k_(1, 1)) * v + T(k_(1, 2)) - T(obs_.y());
-    return true;
-  }
-  Eigen::Matrix3d k_;
-  Eigen::Vector2d obs_;
-};
-
-}  // namespace
 
 std::string BundleOptions::Check() const {
   if (!(huber_px > 0)) return "huber_px: must be > 0";
@@ -78,12 +43,12 @@ BundleSummary AdjustTwoViewBundle(const BundleOptions& options, TwoViewBundlePro
   for (size_t i = 0; i < n; ++i) {
     double* p = problem->points[i].data();
     ceres_problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<ResidualA, 2, 3>(
-            new ResidualA(problem->k, problem->observations_a[i])),
+        new ceres::AutoDiffCostFunction<PointReprojection, 2, 3>(
+            new PointReprojection(problem->k, problem->observations_a[i])),
         &loss, p);
     ceres_problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<ResidualB, 2, 4, 3, 3>(
-            new ResidualB(problem->k, problem->observations_b[i])),
+        new ceres::AutoDiffCostFunction<PoseReprojection, 2, 4, 3, 3>(
+            new PoseReprojection(problem->k, problem->observations_b[i])),
         &loss, q.coeffs().data(), t.data(), p);
   }
   ceres::Solver::Options solver_options;
@@ -106,8 +71,7 @@ BundleSummary AdjustTwoViewBundle(const BundleOptions& options, TwoViewBundlePro
     problem->rotation = q.normalized().toRotationMatrix();
     problem->translation = t.normalized();
   }
-  summary.time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }
 
