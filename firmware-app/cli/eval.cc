@@ -24,6 +24,18 @@
 namespace mm::cli {
 namespace {
 
+// Writes `text` to `path` unless it is empty: 0, or 1 after naming the file it could not write.
+int WriteJson(const std::string& path, const std::string& text) {
+  if (path.empty()) return 0;
+  std::ofstream out(path);
+  out << text;
+  if (!out) {
+    std::cerr << "monomesh eval: cannot write " << path << "\n";
+    return 1;
+  }
+  return 0;
+}
+
 struct EvalArgs {
   std::string dataset, calib, list, json, spool, feed_log;
   int step = 1;
@@ -70,15 +82,7 @@ int RunEntryEval(const EvalArgs& args) {
     return 1;
   }
   std::cout << FormatEntryEval(result);
-  if (!args.json.empty()) {
-    std::ofstream out(args.json);
-    out << EntryEvalToJson(result);
-    if (!out) {
-      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
-      return 1;
-    }
-  }
-  return 0;
+  return WriteJson(args.json, EntryEvalToJson(result));
 }
 
 int RunCaptureEval(const EvalArgs& args, const BouguetCamera& camera, const PairOptions& pair) {
@@ -106,15 +110,7 @@ int RunCaptureEval(const EvalArgs& args, const BouguetCamera& camera, const Pair
     for (const CaptureEval& c : result.captures) std::cout << FormatCaptureLine(c) << "\n";
   }
   std::cout << FormatCaptureSummary(result);
-  if (!args.json.empty()) {
-    std::ofstream out(args.json);
-    out << CaptureEvalToJson(result);
-    if (!out) {
-      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
-      return 1;
-    }
-  }
-  return 0;
+  return WriteJson(args.json, CaptureEvalToJson(result));
 }
 
 int RunWalkEval(const EvalArgs& args, const BouguetCamera& camera, const PairOptions& pair) {
@@ -145,15 +141,7 @@ int RunWalkEval(const EvalArgs& args, const BouguetCamera& camera, const PairOpt
     for (const WalkKeyframeEval& k : result.keyframes) std::cout << FormatWalkKeyframeLine(k);
   }
   std::cout << FormatWalkSummary(result.summary);
-  if (!args.json.empty()) {
-    std::ofstream out(args.json);
-    out << WalkEvalToJson(result);
-    if (!out) {
-      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
-      return 1;
-    }
-  }
-  return 0;
+  return WriteJson(args.json, WalkEvalToJson(result));
 }
 
 int RunEval(const EvalArgs& args) {
@@ -205,15 +193,7 @@ int RunEval(const EvalArgs& args) {
     for (const PairEval& p : result.pairs) std::cout << FormatPairLine(p) << "\n";
   }
   std::cout << FormatSummary(result.summary);
-  if (!args.json.empty()) {
-    std::ofstream out(args.json);
-    out << EvalToJson(result);
-    if (!out) {
-      std::cerr << "monomesh eval: cannot write " << args.json << "\n";
-      return 1;
-    }
-  }
-  return 0;
+  return WriteJson(args.json, EvalToJson(result));
 }
 
 }  // namespace
