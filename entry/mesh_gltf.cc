@@ -55,115 +55,124 @@ const unsigned char* AccessorData(const tinygltf::Model& model, int index, int t
 }  // namespace
 
 std::string EncodeGlb(const Mesh& mesh, const std::string& texture_jpeg, const GlbInfo& info) {
+  const GlbPart part{.mesh = &mesh, .texture_jpeg = &texture_jpeg, .name = "keyframe_a"};
+  return EncodeGlb(std::span<const GlbPart>(&part, 1), info);
+}
+
+std::string EncodeGlb(std::span<const GlbPart> parts, const GlbInfo& info) {
   tinygltf::Model model;
   model.asset.version = "2.0";
   model.asset.generator = info.generator;
   tinygltf::Value::Object extras;
   extras["scale"] = tinygltf::Value(info.scale_note);
-  extras["frame"] = tinygltf::Value(std::string(
-      "camera A of the pair; stored as glTF axes (x, -y, -z) of OpenCV's camera frame"));
+  extras["frame"] = tinygltf::Value(info.frame_note);
   model.asset.extras = tinygltf::Value(extras);
   model.buffers.resize(1);
-
-  // Positions in glTF axes, with the bounds the spec requires.
-  std::vector<float> positions;
-  positions.reserve(mesh.vertices.size() * 3);
-  std::vector<double> lo(3, std::numeric_limits<double>::max());
-  std::vector<double> hi(3, std::numeric_limits<double>::lowest());
-  for (const Eigen::Vector3f& v : mesh.vertices) {
-    const float p[3] = {v.x(), -v.y(), -v.z()};
-    for (int k = 0; k < 3; ++k) {
-      positions.push_back(p[k]);
-      lo[static_cast<size_t>(k)] = std::min(lo[static_cast<size_t>(k)], static_cast<double>(p[k]));
-      hi[static_cast<size_t>(k)] = std::max(hi[static_cast<size_t>(k)], static_cast<double>(p[k]));
-    }
-  }
-  // glTF texture coordinates have v down (origin at the image's top-left).
-  std::vector<float> texcoords;
-  const bool has_uvs = mesh.uvs.size() == mesh.vertices.size();
-  if (has_uvs) {
-    for (const Eigen::Vector2f& uv : mesh.uvs) {
-      texcoords.push_back(uv.x());
-      texcoords.push_back(1.0f - uv.y());
-    }
-  }
-  std::vector<uint32_t> indices;
-  for (const Eigen::Vector3i& t : mesh.triangles) {
-    for (int k = 0; k < 3; ++k) indices.push_back(static_cast<uint32_t>(t[k]));
-  }
-
-  tinygltf::Primitive prim;
-  prim.mode = TINYGLTF_MODE_TRIANGLES;
-  {
-    tinygltf::Accessor a;
-    a.bufferView = AddView(&model, positions.data(), positions.size() * sizeof(float),
-                           TINYGLTF_TARGET_ARRAY_BUFFER);
-    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-    a.type = TINYGLTF_TYPE_VEC3;
-    a.count = mesh.vertices.size();
-    if (!mesh.vertices.empty()) {
-      a.minValues = lo;
-      a.maxValues = hi;
-    }
-    model.accessors.push_back(a);
-    prim.attributes["POSITION"] = static_cast<int>(model.accessors.size()) - 1;
-  }
-  if (has_uvs) {
-    tinygltf::Accessor a;
-    a.bufferView = AddView(&model, texcoords.data(), texcoords.size() * sizeof(float),
-                           TINYGLTF_TARGET_ARRAY_BUFFER);
-    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-    a.type = TINYGLTF_TYPE_VEC2;
-    a.count = mesh.uvs.size();
-    model.accessors.push_back(a);
-    prim.attributes["TEXCOORD_0"] = static_cast<int>(model.accessors.size()) - 1;
-  }
-  {
-    tinygltf::Accessor a;
-    a.bufferView = AddView(&model, indices.data(), indices.size() * sizeof(uint32_t),
-                           TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-    a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
-    a.type = TINYGLTF_TYPE_SCALAR;
-    a.count = indices.size();
-    model.accessors.push_back(a);
-    prim.indices = static_cast<int>(model.accessors.size()) - 1;
-  }
-
-  tinygltf::Material material;
-  material.name = "keyframe_a";
-  material.doubleSided = true;
-  material.pbrMetallicRoughness.metallicFactor = 0.0;
-  material.pbrMetallicRoughness.roughnessFactor = 1.0;
-  if (!texture_jpeg.empty() && has_uvs) {
-    tinygltf::Image image;
-    image.name = "keyframe_a";
-    image.mimeType = "image/jpeg";
-    image.bufferView = AddView(&model, texture_jpeg.data(), texture_jpeg.size(), 0);
-    model.images.push_back(image);
-    tinygltf::Sampler sampler;
-    sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-    sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-    sampler.wrapS = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
-    sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
-    model.samplers.push_back(sampler);
-    tinygltf::Texture texture;
-    texture.sampler = 0;
-    texture.source = 0;
-    model.textures.push_back(texture);
-    material.pbrMetallicRoughness.baseColorTexture.index = 0;
-  }
-  material.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object());
   model.extensionsUsed.push_back("KHR_materials_unlit");
-  model.materials.push_back(material);
-  prim.material = 0;
-
+  tinygltf::Sampler sampler;
+  sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+  sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+  sampler.wrapS = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+  sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+  model.samplers.push_back(sampler);
   tinygltf::Mesh gmesh;
   gmesh.name = "monomesh";
-  gmesh.primitives.push_back(prim);
+
+  for (const GlbPart& part : parts) {
+    const Mesh& mesh = *part.mesh;
+    // Positions in glTF axes, with the bounds the spec requires.
+    std::vector<float> positions;
+    positions.reserve(mesh.vertices.size() * 3);
+    std::vector<double> lo(3, std::numeric_limits<double>::max());
+    std::vector<double> hi(3, std::numeric_limits<double>::lowest());
+    for (const Eigen::Vector3f& v : mesh.vertices) {
+      const float p[3] = {v.x(), -v.y(), -v.z()};
+      for (int k = 0; k < 3; ++k) {
+        positions.push_back(p[k]);
+        lo[static_cast<size_t>(k)] =
+            std::min(lo[static_cast<size_t>(k)], static_cast<double>(p[k]));
+        hi[static_cast<size_t>(k)] =
+            std::max(hi[static_cast<size_t>(k)], static_cast<double>(p[k]));
+      }
+    }
+    // glTF texture coordinates have v down (origin at the image's top-left).
+    std::vector<float> texcoords;
+    const bool has_uvs = mesh.uvs.size() == mesh.vertices.size();
+    if (has_uvs) {
+      for (const Eigen::Vector2f& uv : mesh.uvs) {
+        texcoords.push_back(uv.x());
+        texcoords.push_back(1.0f - uv.y());
+      }
+    }
+    std::vector<uint32_t> indices;
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      for (int k = 0; k < 3; ++k) indices.push_back(static_cast<uint32_t>(t[k]));
+    }
+
+    tinygltf::Primitive prim;
+    prim.mode = TINYGLTF_MODE_TRIANGLES;
+    {
+      tinygltf::Accessor a;
+      a.bufferView = AddView(&model, positions.data(), positions.size() * sizeof(float),
+                             TINYGLTF_TARGET_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+      a.type = TINYGLTF_TYPE_VEC3;
+      a.count = mesh.vertices.size();
+      if (!mesh.vertices.empty()) {
+        a.minValues = lo;
+        a.maxValues = hi;
+      }
+      model.accessors.push_back(a);
+      prim.attributes["POSITION"] = static_cast<int>(model.accessors.size()) - 1;
+    }
+    if (has_uvs) {
+      tinygltf::Accessor a;
+      a.bufferView = AddView(&model, texcoords.data(), texcoords.size() * sizeof(float),
+                             TINYGLTF_TARGET_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+      a.type = TINYGLTF_TYPE_VEC2;
+      a.count = mesh.uvs.size();
+      model.accessors.push_back(a);
+      prim.attributes["TEXCOORD_0"] = static_cast<int>(model.accessors.size()) - 1;
+    }
+    {
+      tinygltf::Accessor a;
+      a.bufferView = AddView(&model, indices.data(), indices.size() * sizeof(uint32_t),
+                             TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+      a.type = TINYGLTF_TYPE_SCALAR;
+      a.count = indices.size();
+      model.accessors.push_back(a);
+      prim.indices = static_cast<int>(model.accessors.size()) - 1;
+    }
+
+    tinygltf::Material material;
+    material.name = part.name;
+    material.doubleSided = true;
+    material.pbrMetallicRoughness.metallicFactor = 0.0;
+    material.pbrMetallicRoughness.roughnessFactor = 1.0;
+    if (part.texture_jpeg != nullptr && !part.texture_jpeg->empty() && has_uvs) {
+      tinygltf::Image image;
+      image.name = part.name;
+      image.mimeType = "image/jpeg";
+      image.bufferView = AddView(&model, part.texture_jpeg->data(), part.texture_jpeg->size(), 0);
+      model.images.push_back(image);
+      tinygltf::Texture texture;
+      texture.sampler = 0;
+      texture.source = static_cast<int>(model.images.size()) - 1;
+      model.textures.push_back(texture);
+      material.pbrMetallicRoughness.baseColorTexture.index =
+          static_cast<int>(model.textures.size()) - 1;
+    }
+    material.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object());
+    model.materials.push_back(material);
+    prim.material = static_cast<int>(model.materials.size()) - 1;
+    gmesh.primitives.push_back(prim);
+  }
   model.meshes.push_back(gmesh);
   tinygltf::Node node;
   node.mesh = 0;
-  node.name = "camera_a_frame";
+  node.name = info.node_name;
   model.nodes.push_back(node);
   tinygltf::Scene scene;
   scene.nodes.push_back(0);

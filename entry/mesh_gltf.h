@@ -10,6 +10,7 @@
 // Thread-safety: pure functions; reentrant.
 
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 
 #include "recon/mesh.h"
@@ -21,11 +22,24 @@ struct GlbInfo {
   /// Written to asset.extras.scale: a monocular reconstruction has no metric scale.
   std::string scale_note =
       "up to scale: a monocular pair fixes no metric scale; the baseline |t| = 1 is the unit";
+  /// Written to asset.extras.frame: the frame the vertices are in.
+  std::string frame_note =
+      "camera A of the pair; stored as glTF axes (x, -y, -z) of OpenCV's camera frame";
+  std::string node_name = "camera_a_frame";
+};
+
+/// One primitive of a GLB: a mesh with its own texture (a walk's keyframe meshes).
+struct GlbPart {
+  const Mesh* mesh = nullptr;
+  const std::string* texture_jpeg = nullptr;  ///< May be null or empty: untextured.
+  std::string name;                           ///< The material's and the image's name.
 };
 
 /// The GLB bytes. `texture_jpeg` is the encoded keyframe A (may be empty: untextured). The
 /// mesh has at least one triangle (glTF accessors hold at least one element).
 std::string EncodeGlb(const Mesh& mesh, const std::string& texture_jpeg, const GlbInfo& info = {});
+/// One primitive and material per part (each part has at least one triangle).
+std::string EncodeGlb(std::span<const GlbPart> parts, const GlbInfo& info = {});
 
 /// Reads a GLB written by EncodeGlb (or any GLB with one triangle primitive using POSITION,
 /// TEXCOORD_0 and indices, at least one vertex and a whole number of triangles) back into

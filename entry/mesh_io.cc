@@ -103,19 +103,31 @@ std::string EncodePointsPly(std::span<const Eigen::Vector3d> points,
   return out;
 }
 
-ColmapText EncodeColmapText(const ColmapInput& in) {
+ColmapText EncodeColmapModel(const ColmapModel& model) {
   ColmapText out;
-  const size_t n = std::min({in.points_in_cam_a.size(), in.pixels_a.size(), in.pixels_b.size()});
-  const bool has_colors = in.colors_rgb.size() >= n;
+  const Eigen::Matrix3d& K = model.K;
+  // Per image, its observations in order: POINT2D_IDX is the position in this list.
+  std::vector<std::vector<std::pair<Eigen::Vector2d, size_t>>> observations(model.images.size());
+  std::vector<std::vector<std::pair<size_t, size_t>>> tracks(model.points.size());
+  size_t total = 0;
+  for (size_t p = 0; p < model.points.size(); ++p) {
+    for (const ColmapModel::Observation& o : model.points[p].track) {
+      if (o.image < 0 || o.image >= static_cast<int>(model.images.size())) continue;
+      auto& list = observations[static_cast<size_t>(o.image)];
+      tracks[p].emplace_back(static_cast<size_t>(o.image), list.size());
+      list.emplace_back(o.pixel, p);
+      ++total;
+    }
+  }
   {
     std::ostringstream c;
     c.precision(10);
     c << "# Camera list with one line of data per camera:\n"
       << "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
       << "# Number of cameras: 1\n";
-    if (in.K(0, 1) != 0.0) c << "# monomesh: skew " << in.K(0, 1) << " dropped (PINHOLE)\n";
-    c << "1 PINHOLE " << in.width << " " << in.height << " " << in.K(0, 0) << " " << in.K(1, 1)
-      << " " << in.K(0, 2) + 0.5 << " " << in.K(1, 2) + 0.5 << "\n";
+    if (K(0, 1) != 0.0) c << "# monomesh: skew " << K(0, 1) << " dropped (PINHOLE)\n";
+    c << "1 PINHOLE " << model.width << " " << model.height << " " << K(0, 0) << " " << K(1, 1)
+      << " " << K(0, 2) + 0.5 << " " << K(1, 2) + 0.5 << "\n";
     out.cameras = c.str();
   }
   {
@@ -124,46 +136,75 @@ ColmapText EncodeColmapText(const ColmapInput& in) {
     im << "# Image list with two lines of data per image:\n"
        << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
        << "#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
-       << "# Number of images: 2, mean observations per image: " << n << "\n"
-       << "# monomesh: up to scale (|t| = 1, the baseline, is the unit)\n";
-    const Eigen::Quaterniond qb(in.rotation_b_from_a);
-    const Eigen::Vector3d& t = in.translation_b_from_a;
-    im << "1 1 0 0 0 0 0 0 1 " << in.image_a_name << "\n";
-    for (size_t i = 0; i < n; ++i) {
-      im << (i ? " " : "") << in.pixels_a[i].x() + 0.5 << " " << in.pixels_a[i].y() + 0.5 << " "
-         << i + 1;
+       << "# Number of images: " << model.images.size() << ", mean observations per image: "
+       << (model.images.empty() ? 0 : total / model.images.size()) << "\n";
+    if (!model.scale_note.empty()) im << "# monomesh: " << model.scale_note << "\n";
+    for (size_t i = 0; i < model.images.size(); ++i) {
+      const ColmapModel::Image& image = model.images[i];
+      const Eigen::Quaterniond q(image.cam_from_world.linear());
+      const Eigen::Vector3d& t = image.cam_from_world.translation();
+      im << i + 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x()
+         << " " << t.y() << " " << t.z() << " 1 " << image.name << "\n";
+      for (size_t k = 0; k < observations[i].size(); ++k) {
+        const auto& [pixel, point] = observations[i][k];
+        im << (k ? " " : "") << pixel.x() + 0.5 << " " << pixel.y() + 0.5 << " " << point + 1;
+      }
+      im << "\n";
     }
-    im << "\n2 " << qb.w() << " " << qb.x() << " " << qb.y() << " " << qb.z() << " " << t.x() << " "
-       << t.y() << " " << t.z() << " 1 " << in.image_b_name << "\n";
-    for (size_t i = 0; i < n; ++i) {
-      im << (i ? " " : "") << in.pixels_b[i].x() + 0.5 << " " << in.pixels_b[i].y() + 0.5 << " "
-         << i + 1;
-    }
-    im << "\n";
     out.images = im.str();
   }
   {
-    // Reprojection error per point: the mean over its two observations (pixels).
-    Eigen::Matrix3d K = in.K;
     std::ostringstream pt;
     pt.precision(10);
     pt << "# 3D point list with one line of data per point:\n"
        << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
-       << "# Number of points: " << n << "\n";
-    for (size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d& p = in.points_in_cam_a[i];
-      const Eigen::Vector3d pb = in.rotation_b_from_a * p + in.translation_b_from_a;
-      const Eigen::Vector2d errors = ReprojectionErrorsPx(K, p, pb, in.pixels_a[i], in.pixels_b[i]);
-      const double err = 0.5 * (errors.x() + errors.y());
-      const int r = has_colors ? in.colors_rgb[i][0] : 128;
-      const int g = has_colors ? in.colors_rgb[i][1] : 128;
-      const int b = has_colors ? in.colors_rgb[i][2] : 128;
-      pt << i + 1 << " " << p.x() << " " << p.y() << " " << p.z() << " " << r << " " << g << " "
-         << b << " " << (std::isfinite(err) ? err : 0.0) << " 1 " << i << " 2 " << i << "\n";
+       << "# Number of points: " << model.points.size() << "\n";
+    for (size_t p = 0; p < model.points.size(); ++p) {
+      const ColmapModel::Point& point = model.points[p];
+      // ERROR: the mean reprojection error over the track (pixels).
+      double error = 0.0;
+      int n = 0;
+      for (const ColmapModel::Observation& o : point.track) {
+        if (o.image < 0 || o.image >= static_cast<int>(model.images.size())) continue;
+        const Eigen::Vector3d x =
+            model.images[static_cast<size_t>(o.image)].cam_from_world * point.position;
+        const Eigen::Vector3d h = K * x;
+        error += (h.head<2>() / h.z() - o.pixel).norm();
+        ++n;
+      }
+      error = n > 0 ? error / n : 0.0;
+      const Eigen::Vector3d& x = point.position;
+      pt << p + 1 << " " << x.x() << " " << x.y() << " " << x.z() << " " << int{point.rgb[0]} << " "
+         << int{point.rgb[1]} << " " << int{point.rgb[2]} << " "
+         << (std::isfinite(error) ? error : 0.0);
+      for (const auto& [image, index] : tracks[p]) pt << " " << image + 1 << " " << index;
+      pt << "\n";
     }
     out.points3d = pt.str();
   }
   return out;
+}
+
+ColmapText EncodeColmapText(const ColmapInput& in) {
+  const size_t n = std::min({in.points_in_cam_a.size(), in.pixels_a.size(), in.pixels_b.size()});
+  const bool has_colors = in.colors_rgb.size() >= n;
+  ColmapModel model;
+  model.width = in.width;
+  model.height = in.height;
+  model.K = in.K;
+  model.scale_note = "up to scale (|t| = 1, the baseline, is the unit)";
+  Eigen::Isometry3d cam_b_from_cam_a = Eigen::Isometry3d::Identity();
+  cam_b_from_cam_a.linear() = in.rotation_b_from_a;
+  cam_b_from_cam_a.translation() = in.translation_b_from_a;
+  model.images = {{in.image_a_name, Eigen::Isometry3d::Identity()},
+                  {in.image_b_name, cam_b_from_cam_a}};
+  model.points.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    model.points[i].position = in.points_in_cam_a[i];
+    if (has_colors) model.points[i].rgb = in.colors_rgb[i];
+    model.points[i].track = {{0, in.pixels_a[i]}, {1, in.pixels_b[i]}};
+  }
+  return EncodeColmapModel(model);
 }
 
 std::vector<Eigen::Matrix<uint8_t, 3, 1>> SampleColors(const cv::Mat& image_bgr,

@@ -4,6 +4,7 @@
 // Thread-safety: pure functions; reentrant.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <span>
 #include <string>
 
@@ -52,6 +53,30 @@ struct ColmapText {
   std::string images;
   std::string points3d;
 };
+
+/// A sparse model of any number of images of one PINHOLE camera, for COLMAP's text format.
+struct ColmapModel {
+  int width = 0;
+  int height = 0;
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();  ///< Skew is dropped (PINHOLE has none).
+  std::string scale_note;  ///< A comment in images.txt (e.g. the model's unit).
+  struct Image {
+    std::string name;
+    Eigen::Isometry3d cam_from_world = Eigen::Isometry3d::Identity();
+  };
+  std::vector<Image> images;
+  struct Observation {
+    int image = 0;          ///< Index into images.
+    Eigen::Vector2d pixel;  ///< OpenCV-style (centre of the first pixel at 0).
+  };
+  struct Point {
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< World frame.
+    Eigen::Matrix<uint8_t, 3, 1> rgb{128, 128, 128};
+    std::vector<Observation> track;
+  };
+  std::vector<Point> points;
+};
+ColmapText EncodeColmapModel(const ColmapModel& model);
 
 ColmapText EncodeColmapText(const ColmapInput& in);
 

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -234,6 +235,140 @@ cv::Mat RenderPreview(Renderer& renderer, const Mesh& mesh, const cv::Mat& textu
   DrawPreviewCues(mesh, K, oblique_camera, shape.mask, cam_b_from_cam_a, &shape_rgb);
   cv::Mat out;
   cv::hconcat(std::vector<cv::Mat>{from_a.rgb, oblique_rgb, shape_rgb}, out);
+  return out;
+}
+
+Eigen::Vector3d UpFromCameras(std::span<const Eigen::Isometry3d> cam_from_world) {
+  Eigen::Vector3d down = Eigen::Vector3d::Zero();
+  for (const Eigen::Isometry3d& c : cam_from_world) down += c.linear().row(1).transpose();
+  if (down.norm() < 1e-9) return -Eigen::Vector3d::UnitY();
+  return -down.normalized();
+}
+
+namespace {
+
+// A camera at `eye` looking along `forward`, its image's x axis along `right` (made
+// orthogonal), focal length f.
+RenderCamera LookingCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d& forward,
+                           const Eigen::Vector3d& right, double f, int width, int height) {
+  const Eigen::Vector3d z = forward.normalized();
+  const Eigen::Vector3d x = (right - right.dot(z) * z).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d world_from_cam;
+  world_from_cam << x, y, z;
+  RenderCamera cam;
+  cam.K << f, 0, 0.5 * (width - 1), 0, f, 0.5 * (height - 1), 0, 0, 1;
+  cam.width = width;
+  cam.height = height;
+  cam.cam_from_world.linear() = world_from_cam.transpose();
+  cam.cam_from_world.translation() = -world_from_cam.transpose() * eye;
+  return cam;
+}
+
+}  // namespace
+
+cv::Mat RenderWalkPreview(Renderer& renderer, const Mesh& mesh,
+                          std::span<const Eigen::Isometry3d> cam_from_world,
+                          const Eigen::Matrix3d& K, int width, int height, std::string* error) {
+  const Eigen::Vector3d up = UpFromCameras(cam_from_world);
+  std::vector<Eigen::Vector3d> centres;
+  for (const Eigen::Isometry3d& c : cam_from_world) centres.push_back(c.inverse().translation());
+  // The plan cut: everything above the highest camera goes.
+  double cut = -std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector3d& c : centres) cut = std::max(cut, c.dot(up));
+  Mesh below;
+  below.vertices = mesh.vertices;
+  below.colors = mesh.colors;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    const Eigen::Vector3d centroid =
+        ((mesh.vertices[static_cast<size_t>(t[0])] + mesh.vertices[static_cast<size_t>(t[1])] +
+          mesh.vertices[static_cast<size_t>(t[2])]) /
+         3.0f)
+            .cast<double>();
+    if (centroid.dot(up) <= cut) below.triangles.push_back(t);
+  }
+  // The extent: the cameras and the kept mesh's 5-95 % box.
+  std::vector<Eigen::Vector3d> keep = centres;
+  if (!below.triangles.empty()) {
+    Eigen::Vector3d lo, hi;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> c;
+      for (const Eigen::Vector3i& t : below.triangles) {
+        c.push_back(below.vertices[static_cast<size_t>(t[0])][k]);
+      }
+      lo[k] = QuantileOf(c, 0.05);
+      hi[k] = QuantileOf(std::move(c), 0.95);
+    }
+    for (int corner = 0; corner < 8; ++corner) {
+      keep.emplace_back((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
+                        (corner & 4) ? hi.z() : lo.z());
+    }
+  }
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : keep) centre += p;
+  centre /= std::max<size_t>(keep.size(), 1);
+  double radius = 1e-3;
+  for (const Eigen::Vector3d& p : keep) radius = std::max(radius, (p - centre).norm());
+  // The walk's heading on the floor: the plan's x axis (first to last camera), up the page.
+  Eigen::Vector3d heading = centres.size() >= 2 ? centres.back() - centres.front()
+                                                : Eigen::Vector3d(Eigen::Vector3d::UnitZ());
+  heading -= heading.dot(up) * up;
+  if (heading.norm() < 1e-9) heading = up.unitOrthogonal();
+  heading.normalize();
+  const double distance = 4.0 * radius;
+  const double f = 0.45 * std::min(width, height) * distance / radius;
+  // Plan: from above, looking down, the heading up the page (image -y).
+  RenderCamera plan =
+      LookingCamera(centre + distance * up, -up, heading.cross(up), f, width, height);
+  // The image's x axis is heading x up seen from above; flip if that puts heading down.
+  if ((plan.cam_from_world.linear() * heading).y() > 0) {
+    plan = LookingCamera(centre + distance * up, -up, -heading.cross(up), f, width, height);
+  }
+  // Oblique: from behind the start, raised 35 degrees.
+  const Eigen::Vector3d back =
+      (-heading * std::cos(35.0 * M_PI / 180) + up * std::sin(35.0 * M_PI / 180)).normalized();
+  const RenderCamera oblique =
+      LookingCamera(centre + distance * back, -back, heading.cross(up), f, width, height);
+  std::vector<RenderCamera> views{plan, oblique};
+  for (RenderCamera& v : views) {
+    v.near_plane = 0.05 * radius;
+    v.far_plane = distance + 4.0 * radius;
+  }
+  std::vector<cv::Mat> tiles;
+  for (int shaded = 0; shaded < 2; ++shaded) {
+    std::vector<cv::Mat> row;
+    for (const RenderCamera& v : views) {
+      const RenderResult r =
+          below.triangles.empty()
+              ? RenderResult{.success = true,
+                             .failure_reason = {},
+                             .rgb = cv::Mat(height, width, CV_8UC3, cv::Scalar::all(0)),
+                             .depth = {},
+                             .mask = {},
+                             .covered_pixels = 0}
+              : renderer.Render(shaded ? ShadedByNormals(below, v) : below, cv::Mat(), v);
+      if (!r.success) {
+        if (error != nullptr) *error = r.failure_reason;
+        return {};
+      }
+      cv::Mat tile = r.rgb.clone();
+      for (size_t i = 1; i < centres.size(); ++i) {
+        DrawSegment(v, centres[i - 1], centres[i], kPreviewCameraBColor, 2, &tile);
+      }
+      if (!cam_from_world.empty()) {
+        const double depth = 0.08 * radius;
+        DrawFrustum(v, K, width, height, cam_from_world.front(), depth, kPreviewCameraAColor,
+                    &tile);
+        DrawFrustum(v, K, width, height, cam_from_world.back(), depth, kPreviewCameraBColor, &tile);
+      }
+      row.push_back(tile);
+    }
+    cv::Mat joined;
+    cv::hconcat(row, joined);
+    tiles.push_back(joined);
+  }
+  cv::Mat out;
+  cv::vconcat(tiles, out);
   return out;
 }
 

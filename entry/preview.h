@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 
 #include "recon/mesh.h"
@@ -45,5 +46,18 @@ Mesh ShadedByNormals(const Mesh& mesh, const RenderCamera& camera);
 /// A, framing the mesh (its 3-97 % box) and the cameras' centres.
 RenderCamera ObliqueCamera(const Mesh& mesh, const Eigen::Matrix3d& K, int width, int height,
                            const Eigen::Isometry3d* cam_b_from_cam_a = nullptr);
+
+/// The cameras' up direction in the world: minus the mean of their y axes (OpenCV cameras,
+/// y down; a robot's camera is about upright). Unit length; -y of the world when empty.
+Eigen::Vector3d UpFromCameras(std::span<const Eigen::Isometry3d> cam_from_world);
+
+/// A walk's preview: a top-down plan view beside an oblique view from behind the walk's start,
+/// of `mesh` (vertex colours, world frame) cut above the highest camera (the ceiling would
+/// hide the floor plan), with the keyframes' path and the first and last frusta drawn on both
+/// and a second pair of the same views shaded by normals. BGR8, 2 width x 2 height.
+/// Returns an empty image and sets *error on failure.
+cv::Mat RenderWalkPreview(Renderer& renderer, const Mesh& mesh,
+                          std::span<const Eigen::Isometry3d> cam_from_world,
+                          const Eigen::Matrix3d& K, int width, int height, std::string* error);
 
 }  // namespace mm

@@ -86,6 +86,49 @@ void ReadVector(const json& j, const char* key, Eigen::MatrixBase<Derived>* out)
   for (Eigen::Index i = 0; i < out->size(); ++i) (*out)(i) = it->at(i).template get<double>();
 }
 
+json CameraJson(const EntryReport::Camera& cam) {
+  return {{"image_size", {cam.width, cam.height}},
+          {"fc", {cam.fc.x(), cam.fc.y()}},
+          {"cc", {cam.cc.x(), cam.cc.y()}},
+          {"alpha_c", cam.alpha_c},
+          {"kc", cam.kc}};
+}
+
+void ReadCamera(const json& cam, EntryReport::Camera* out) {
+  if (const auto it = cam.find("image_size"); it != cam.end()) {
+    out->width = Integer<int>(it->at(0), "image_size");
+    out->height = Integer<int>(it->at(1), "image_size");
+  }
+  ReadVector(cam, "fc", &out->fc);
+  ReadVector(cam, "cc", &out->cc);
+  Read(cam, "alpha_c", &out->alpha_c);
+  Read(cam, "kc", &out->kc);
+}
+
+json ScaleJson(const EntryReport::Scale& scale) {
+  return {{"source", scale.source},
+          {"units", scale.units},
+          {"metres_per_unit", scale.metres_per_unit},
+          {"uncertainty_rel", scale.uncertainty_rel},
+          {"odometry_metres_per_unit", scale.odometry_metres_per_unit},
+          {"floor_metres_per_unit", scale.floor_metres_per_unit},
+          {"why_not", scale.why_not}};
+}
+
+// Layout 1 had a note string for `scale` (always up to scale): the defaults say the same.
+void ReadScale(const json& report, EntryReport::Scale* out) {
+  const auto it = report.find("scale");
+  if (it == report.end() || !it->is_object()) return;
+  const json& scale = *it;
+  Read(scale, "source", &out->source);
+  Read(scale, "units", &out->units);
+  Read(scale, "metres_per_unit", &out->metres_per_unit);
+  Read(scale, "uncertainty_rel", &out->uncertainty_rel);
+  Read(scale, "odometry_metres_per_unit", &out->odometry_metres_per_unit);
+  Read(scale, "floor_metres_per_unit", &out->floor_metres_per_unit);
+  Read(scale, "why_not", &out->why_not);
+}
+
 void ReadKeyframe(const json& j, KeyframeInfo* k) {
   Read(j, "sequence", &k->sequence);
   Read(j, "source_time_s", &k->source_time_s);
@@ -235,12 +278,7 @@ json ToJson(const EntryReport& r) {
     report["keyframe_b_tries"] = tries;
   }
   report["keyframes"] = {{"a", KeyframeJson(r.keyframe_a)}, {"b", KeyframeJson(r.keyframe_b)}};
-  const auto& cam = r.camera;
-  report["camera"] = {{"image_size", {cam.width, cam.height}},
-                      {"fc", {cam.fc.x(), cam.fc.y()}},
-                      {"cc", {cam.cc.x(), cam.cc.y()}},
-                      {"alpha_c", cam.alpha_c},
-                      {"kc", cam.kc}};
+  report["camera"] = CameraJson(r.camera);
   const Eigen::Matrix3d& rot = r.relative_pose.rotation;
   const Eigen::Vector4d& q = r.relative_pose.quaternion_wxyz;
   const Eigen::Vector3d& t = r.relative_pose.translation;
@@ -251,13 +289,7 @@ json ToJson(const EntryReport& r) {
                                {rot(2, 0), rot(2, 1), rot(2, 2)}}},
                              {"quaternion_wxyz", {q(0), q(1), q(2), q(3)}},
                              {"translation", {t.x(), t.y(), t.z()}}};
-  report["scale"] = {{"source", r.scale.source},
-                     {"units", r.scale.units},
-                     {"metres_per_unit", r.scale.metres_per_unit},
-                     {"uncertainty_rel", r.scale.uncertainty_rel},
-                     {"odometry_metres_per_unit", r.scale.odometry_metres_per_unit},
-                     {"floor_metres_per_unit", r.scale.floor_metres_per_unit},
-                     {"why_not", r.scale.why_not}};
+  report["scale"] = ScaleJson(r.scale);
   const auto& n = r.counts;
   report["counts"] = {{"features_a", n.features_a},
                       {"features_b", n.features_b},
@@ -290,10 +322,10 @@ json ToJson(const EntryReport& r) {
   report["quality"] = {{"median_triangulation_angle_deg", r.quality.median_triangulation_angle_deg},
                        {"reprojection_rms_px", r.quality.reprojection_rms_px}};
   const auto& ts = r.timings_s;
-  report["timings_s"] = {{"features_a", ts.features_a}, {"features_b", ts.features_b},
-                         {"matching", ts.matching},     {"geometry", ts.geometry},
-                         {"dense", ts.dense},           {"meshing", ts.meshing},
-                         {"total_recon", ts.total_recon}};
+  report["timings_s"] = {
+      {"features_a", ts.features_a},  {"features_b", ts.features_b}, {"matching", ts.matching},
+      {"geometry", ts.geometry},      {"dense", ts.dense},           {"meshing", ts.meshing},
+      {"total_recon", ts.total_recon}};
   if (ts.preview) report["timings_s"]["preview"] = *ts.preview;
   if (ts.encode) report["timings_s"]["encode"] = *ts.encode;
   if (r.preview) {
@@ -310,6 +342,7 @@ std::string FromJson(const json& j, EntryReport* out) {
   EntryReport r;
   try {
     if (!j.is_object()) return "a report is a JSON object";
+    if (ReportKind(j) != "pair") return "a walk's report, not a pair's (kind: walk)";
     r.schema_version = 1;  // Written before the field existed.
     Read(j, "schema_version", &r.schema_version);
     if (r.schema_version > kEntryReportSchemaVersion) {
@@ -357,15 +390,7 @@ std::string FromJson(const json& j, EntryReport* out) {
     const json& k = Object(j, "keyframes");
     ReadKeyframe(Object(k, "a"), &r.keyframe_a);
     ReadKeyframe(Object(k, "b"), &r.keyframe_b);
-    const json& cam = Object(j, "camera");
-    if (const auto it = cam.find("image_size"); it != cam.end()) {
-      r.camera.width = Integer<int>(it->at(0), "image_size");
-      r.camera.height = Integer<int>(it->at(1), "image_size");
-    }
-    ReadVector(cam, "fc", &r.camera.fc);
-    ReadVector(cam, "cc", &r.camera.cc);
-    Read(cam, "alpha_c", &r.camera.alpha_c);
-    Read(cam, "kc", &r.camera.kc);
+    ReadCamera(Object(j, "camera"), &r.camera);
     const json& pose = Object(j, "relative_pose");
     Read(pose, "convention", &r.relative_pose.convention);
     if (const auto it = pose.find("rotation"); it != pose.end()) {
@@ -377,17 +402,7 @@ std::string FromJson(const json& j, EntryReport* out) {
     }
     ReadVector(pose, "quaternion_wxyz", &r.relative_pose.quaternion_wxyz);
     ReadVector(pose, "translation", &r.relative_pose.translation);
-    // Layout 1 had a note string here (always up to scale): the defaults say the same.
-    if (const auto it = j.find("scale"); it != j.end() && it->is_object()) {
-      const json& scale = *it;
-      Read(scale, "source", &r.scale.source);
-      Read(scale, "units", &r.scale.units);
-      Read(scale, "metres_per_unit", &r.scale.metres_per_unit);
-      Read(scale, "uncertainty_rel", &r.scale.uncertainty_rel);
-      Read(scale, "odometry_metres_per_unit", &r.scale.odometry_metres_per_unit);
-      Read(scale, "floor_metres_per_unit", &r.scale.floor_metres_per_unit);
-      Read(scale, "why_not", &r.scale.why_not);
-    }
+    ReadScale(j, &r.scale);
     const json& n = Object(j, "counts");
     Read(n, "features_a", &r.counts.features_a);
     Read(n, "features_b", &r.counts.features_b);
@@ -464,17 +479,185 @@ std::string BriefReport(const EntryReport& r) {
   line("points", std::to_string(r.counts.points));
   line("mesh_vertices", std::to_string(r.counts.mesh_vertices));
   line("mesh_triangles", std::to_string(r.counts.mesh_triangles));
-  line("median_triangulation_angle_deg",
-       std::to_string(r.quality.median_triangulation_angle_deg));
+  line("median_triangulation_angle_deg", std::to_string(r.quality.median_triangulation_angle_deg));
   line("b_tries", std::to_string(r.keyframe_b_tries.size()));
   line("total_recon_s", std::to_string(r.timings_s.total_recon));
-  line("scale", r.scale.units == "metres"
-                    ? r.scale.source + " " + std::to_string(r.scale.metres_per_unit) + " m/unit"
-                    : "none (up to scale" + (r.scale.why_not.empty() ? std::string(")")
-                                                                     : ": " + r.scale.why_not + ")"));
+  line("scale",
+       r.scale.units == "metres"
+           ? r.scale.source + " " + std::to_string(r.scale.metres_per_unit) + " m/unit"
+           : "none (up to scale" +
+                 (r.scale.why_not.empty() ? std::string(")") : ": " + r.scale.why_not + ")"));
   return out;
 }
 
-std::string FormatEntryReport(const EntryReport& report) { return JsonText(ToJson(report), 2) + "\n"; }
+std::string FormatEntryReport(const EntryReport& report) {
+  return JsonText(ToJson(report), 2) + "\n";
+}
+
+std::string ReportKind(const json& j) {
+  if (j.is_object()) {
+    const auto it = j.find("kind");
+    if (it != j.end() && it->is_string() && it->get<std::string>() == "walk") return "walk";
+  }
+  return "pair";
+}
+
+json ToJson(const WalkReport& r) {
+  json report;
+  report["kind"] = "walk";
+  report["schema_version"] = r.schema_version;
+  report["monomesh_version"] = r.monomesh_version;
+  report["boot_id"] = r.boot_id;
+  report["success"] = r.success;
+  report["failure_reason"] = r.failure_reason;
+  report["stop_reason"] = r.stop_reason;
+  report["frames"] = r.frames;
+  report["map_segment"] = r.map_segment;
+  report["camera"] = CameraJson(r.camera);
+  report["scale"] = ScaleJson(r.scale);
+  json keyframes = json::array();
+  for (const WalkReport::Keyframe& k : r.keyframes) {
+    keyframes.push_back(
+        {{"index", k.index},
+         {"keyframe", KeyframeJson(k.info)},
+         {"image", k.image},
+         {"segment", k.segment},
+         {"registered", k.registered},
+         {"failure", k.failure},
+         {"matches", k.matches},
+         {"pnp_inliers", k.pnp_inliers},
+         {"new_points", k.new_points},
+         {"bundle_rms_px", k.bundle_rms_px},
+         {"seconds", k.seconds},
+         {"cam_from_segment",
+          {{"convention", "X_cam = R X_segment + t"},
+           {"quaternion_wxyz",
+            {k.quaternion_wxyz[0], k.quaternion_wxyz[1], k.quaternion_wxyz[2],
+             k.quaternion_wxyz[3]}},
+           {"translation", {k.translation.x(), k.translation.y(), k.translation.z()}}}}});
+  }
+  report["keyframes"] = keyframes;
+  json segments = json::array();
+  for (const WalkReport::Segment& s : r.segments) {
+    segments.push_back({{"segment", s.segment},
+                        {"keyframes", s.keyframes},
+                        {"registered", s.registered},
+                        {"first_keyframe", s.first_keyframe}});
+  }
+  report["segments"] = segments;
+  const auto& n = r.counts;
+  report["counts"] = {{"keyframes", n.keyframes},
+                      {"registered", n.registered},
+                      {"segments", n.segments},
+                      {"points", n.points},
+                      {"mesh_parts", n.mesh_parts},
+                      {"mesh_dense_parts", n.mesh_dense_parts},
+                      {"mesh_vertices", n.mesh_vertices},
+                      {"mesh_triangles", n.mesh_triangles},
+                      {"mesh_dropped_overlap", n.mesh_dropped_overlap}};
+  const auto& t = r.timings_s;
+  report["timings_s"] = {{"walk", t.walk},
+                         {"registration_median", t.registration_median},
+                         {"registration_total", t.registration_total},
+                         {"mesh", t.mesh},
+                         {"preview", t.preview},
+                         {"encode", t.encode}};
+  if (r.preview) {
+    report["preview"] = {
+        {"file", r.preview->file}, {"renderer", r.preview->renderer}, {"error", r.preview->error}};
+  }
+  return report;
+}
+
+std::string FromJson(const json& j, WalkReport* out) {
+  WalkReport r;
+  try {
+    if (!j.is_object()) return "a report is a JSON object";
+    if (ReportKind(j) != "walk") return "a pair's report, not a walk's (no kind: walk)";
+    Read(j, "schema_version", &r.schema_version);
+    if (r.schema_version > kWalkReportSchemaVersion) {
+      return "walk report schema " + std::to_string(r.schema_version) + " is newer than " +
+             std::to_string(kWalkReportSchemaVersion);
+    }
+    Read(j, "monomesh_version", &r.monomesh_version);
+    Read(j, "boot_id", &r.boot_id);
+    Read(j, "success", &r.success);
+    Read(j, "failure_reason", &r.failure_reason);
+    Read(j, "stop_reason", &r.stop_reason);
+    Read(j, "frames", &r.frames);
+    Read(j, "map_segment", &r.map_segment);
+    ReadCamera(Object(j, "camera"), &r.camera);
+    ReadScale(j, &r.scale);
+    if (const auto it = j.find("keyframes"); it != j.end()) {
+      if (!it->is_array()) return "keyframes: expected an array";
+      for (const json& kj : *it) {
+        if (!kj.is_object()) return "keyframes: expected objects";
+        WalkReport::Keyframe k;
+        Read(kj, "index", &k.index);
+        ReadKeyframe(Object(kj, "keyframe"), &k.info);
+        Read(kj, "image", &k.image);
+        Read(kj, "segment", &k.segment);
+        Read(kj, "registered", &k.registered);
+        Read(kj, "failure", &k.failure);
+        Read(kj, "matches", &k.matches);
+        Read(kj, "pnp_inliers", &k.pnp_inliers);
+        Read(kj, "new_points", &k.new_points);
+        Read(kj, "bundle_rms_px", &k.bundle_rms_px);
+        Read(kj, "seconds", &k.seconds);
+        const json& pose = Object(kj, "cam_from_segment");
+        ReadVector(pose, "quaternion_wxyz", &k.quaternion_wxyz);
+        ReadVector(pose, "translation", &k.translation);
+        r.keyframes.push_back(std::move(k));
+      }
+    }
+    if (const auto it = j.find("segments"); it != j.end()) {
+      if (!it->is_array()) return "segments: expected an array";
+      for (const json& sj : *it) {
+        if (!sj.is_object()) return "segments: expected objects";
+        WalkReport::Segment s;
+        Read(sj, "segment", &s.segment);
+        Read(sj, "keyframes", &s.keyframes);
+        Read(sj, "registered", &s.registered);
+        Read(sj, "first_keyframe", &s.first_keyframe);
+        r.segments.push_back(s);
+      }
+    }
+    const json& n = Object(j, "counts");
+    Read(n, "keyframes", &r.counts.keyframes);
+    Read(n, "registered", &r.counts.registered);
+    Read(n, "segments", &r.counts.segments);
+    Read(n, "points", &r.counts.points);
+    Read(n, "mesh_parts", &r.counts.mesh_parts);
+    Read(n, "mesh_dense_parts", &r.counts.mesh_dense_parts);
+    Read(n, "mesh_vertices", &r.counts.mesh_vertices);
+    Read(n, "mesh_triangles", &r.counts.mesh_triangles);
+    Read(n, "mesh_dropped_overlap", &r.counts.mesh_dropped_overlap);
+    const json& t = Object(j, "timings_s");
+    Read(t, "walk", &r.timings_s.walk);
+    Read(t, "registration_median", &r.timings_s.registration_median);
+    Read(t, "registration_total", &r.timings_s.registration_total);
+    Read(t, "mesh", &r.timings_s.mesh);
+    Read(t, "preview", &r.timings_s.preview);
+    Read(t, "encode", &r.timings_s.encode);
+    if (j.contains("preview")) {
+      const json& p = Object(j, "preview");
+      EntryReport::Preview preview;
+      Read(p, "file", &preview.file);
+      Read(p, "renderer", &preview.renderer);
+      Read(p, "error", &preview.error);
+      r.preview = preview;
+    }
+  } catch (const json::exception& e) {
+    return e.what();
+  } catch (const FieldError& e) {
+    return e.what;
+  }
+  *out = std::move(r);
+  return {};
+}
+
+std::string FormatWalkReport(const WalkReport& report) {
+  return JsonText(ToJson(report), 2) + "\n";
+}
 
 }  // namespace mm

@@ -112,9 +112,9 @@ struct EntryReport {
   /// The entry's units (scale/metric_scale.h): metres when a source scaled it (every length
   /// in the entry and its files is then in metres), else the baseline is the unit.
   struct Scale {
-    std::string source = "none";  ///< ScaleSourceName of the source used.
+    std::string source = "none";     ///< ScaleSourceName of the source used.
     std::string units = "baseline";  ///< "metres" or "baseline".
-    double metres_per_unit = 1.0;  ///< Applied to the reconstruction (1 when unscaled).
+    double metres_per_unit = 1.0;    ///< Applied to the reconstruction (1 when unscaled).
     double uncertainty_rel = 0.0;
     double odometry_metres_per_unit = 0.0;  ///< Each source's figure (0: none).
     double floor_metres_per_unit = 0.0;
@@ -125,9 +125,9 @@ struct EntryReport {
     int features_a = 0;
     int features_b = 0;
     int matches = 0;
-    int gate_tracks = 0;          ///< The keyframe gate's tracks from A to B given.
-    int gate_tracks_used = 0;     ///< Of those, not duplicates of a SIFT match.
-    int gate_track_inliers = 0;   ///< Epipolar inliers among the tracks used.
+    int gate_tracks = 0;         ///< The keyframe gate's tracks from A to B given.
+    int gate_tracks_used = 0;    ///< Of those, not duplicates of a SIFT match.
+    int gate_track_inliers = 0;  ///< Epipolar inliers among the tracks used.
     int inliers = 0;
     uint64_t points = 0;
     uint64_t mesh_vertices = 0;
@@ -205,5 +205,75 @@ std::string BriefReport(const EntryReport& report);
 
 /// report.json's bytes: ToJson, two-space indent, a final newline.
 std::string FormatEntryReport(const EntryReport& report);
+
+/// report.json of a walk entry (`"kind": "walk"`): the walk's keyframes with their poses in
+/// their segment's frame, the segments, the map's counts, timings and units. A pair's FromJson
+/// refuses it (and this one a pair's), so each reader knows which entry it holds.
+inline constexpr int kWalkReportSchemaVersion = 1;
+struct WalkReport {
+  int schema_version = kWalkReportSchemaVersion;
+  std::string monomesh_version;
+  std::string boot_id;
+  bool success = false;  ///< The map has a segment of >= 2 registered keyframes.
+  std::string failure_reason;
+  /// Why the walk ended: "operator" (walk stop), "timeout", "keyframe limit", "camera lost",
+  /// "daemon stopping".
+  std::string stop_reason;
+  uint64_t frames = 0;   ///< Frames the walk saw.
+  int map_segment = -1;  ///< The segment the map files are of (the largest).
+  EntryReport::Camera camera;
+  EntryReport::Scale scale;
+  struct Keyframe {
+    int index = 0;
+    KeyframeInfo info;
+    std::string image;  ///< Its file in the entry.
+    int segment = 0;
+    bool registered = false;
+    std::string failure;
+    int matches = 0;
+    int pnp_inliers = 0;
+    int new_points = 0;
+    double bundle_rms_px = 0.0;
+    double seconds = 0.0;  ///< Registration (SIFT, matching, pose, local BA).
+    /// cam_from_segment: X_cam = R X_segment + t (valid when registered).
+    Eigen::Vector4d quaternion_wxyz = Eigen::Vector4d(1, 0, 0, 0);
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  };
+  std::vector<Keyframe> keyframes;
+  struct Segment {
+    int segment = 0;
+    int keyframes = 0;
+    int registered = 0;
+    int first_keyframe = 0;
+  };
+  std::vector<Segment> segments;
+  struct Counts {
+    int keyframes = 0;
+    int registered = 0;
+    int segments = 0;
+    int points = 0;  ///< Of the map segment.
+    int mesh_parts = 0;
+    int mesh_dense_parts = 0;
+    int mesh_vertices = 0;
+    int mesh_triangles = 0;
+    int mesh_dropped_overlap = 0;
+  } counts;
+  struct Timings {
+    double walk = 0.0;  ///< From walk start to stop.
+    double registration_median = 0.0;
+    double registration_total = 0.0;
+    double mesh = 0.0;
+    double preview = 0.0;
+    double encode = 0.0;
+  } timings_s;
+  std::optional<EntryReport::Preview> preview;
+};
+
+nlohmann::json ToJson(const WalkReport& report);
+/// Reads a walk report. Returns "" or what is wrong (naming the field).
+std::string FromJson(const nlohmann::json& j, WalkReport* report);
+std::string FormatWalkReport(const WalkReport& report);
+/// The kind of report.json: "walk" or "pair" (a report without `kind`).
+std::string ReportKind(const nlohmann::json& j);
 
 }  // namespace mm

@@ -13,6 +13,8 @@
 #include "dataset/tum.h"
 #include "entry/entry.h"
 #include "entry/json_text.h"
+#include "entry/walk_entry.h"
+#include "eval/walk_eval.h"
 
 namespace mm {
 
@@ -58,6 +60,68 @@ std::optional<double> MapFedTime(const std::vector<FedFrame>& log, double mono_s
   --it;  // The last frame whose write started before mono_s + slack.
   if (mono_s > it->write_end_s + slack_s) return std::nullopt;
   return it->dataset_time_s;
+}
+
+// A walk entry: the map segment's registered keyframes against the ground truth.
+void EvaluateWalkEntry(const fs::path& dir, const Trajectory& gt, const std::vector<FedFrame>& feed,
+                       double slack_s, EntryEval* e) {
+  e->kind = "walk";
+  WalkReport report;
+  if (std::string error = ReadWalkReport(dir, &report); !error.empty()) {
+    e->problem = error;
+    return;
+  }
+  e->reconstructed = report.success;
+  e->walk.keyframes = report.counts.keyframes;
+  e->walk.segments = report.counts.segments;
+  e->walk.stop_reason = report.stop_reason;
+  if (!report.success) {
+    e->problem = "walk failed: " + report.failure_reason;
+    return;
+  }
+  std::vector<Eigen::Vector3d> estimated, truth;
+  for (const WalkReport::Keyframe& k : report.keyframes) {
+    if (!k.registered || k.segment != report.map_segment) continue;
+    double t = k.info.source_time_s;
+    if (!feed.empty()) {
+      const auto mapped = MapFedTime(feed, t, slack_s);
+      if (!mapped) {
+        e->problem = "keyframe " + std::to_string(k.index) + " (device time " + std::to_string(t) +
+                     " s) matches no fed frame in the feed log";
+        return;
+      }
+      t = *mapped;
+    }
+    const auto world_from_cam = gt.WorldFromCamAt(t);
+    if (!world_from_cam) continue;
+    const Eigen::Quaterniond q(k.quaternion_wxyz[0], k.quaternion_wxyz[1], k.quaternion_wxyz[2],
+                               k.quaternion_wxyz[3]);
+    estimated.push_back(-(q.normalized().toRotationMatrix().transpose() * k.translation));
+    truth.push_back(world_from_cam->translation());
+  }
+  e->walk.evaluated_keyframes = static_cast<int>(estimated.size());
+  if (estimated.size() < 3) {
+    e->problem = "fewer than 3 keyframes of the map segment have ground truth";
+    return;
+  }
+  Eigen::Matrix3Xd source(3, static_cast<Eigen::Index>(estimated.size()));
+  Eigen::Matrix3Xd target(3, static_cast<Eigen::Index>(truth.size()));
+  for (size_t i = 0; i < estimated.size(); ++i) {
+    source.col(static_cast<Eigen::Index>(i)) = estimated[i];
+    target.col(static_cast<Eigen::Index>(i)) = truth[i];
+    if (i > 0) e->walk.path_length_m += (truth[i] - truth[i - 1]).norm();
+  }
+  const Eigen::Matrix4d sim3 = AlignSim3(source, target);
+  e->walk.sim3_scale = sim3.block<3, 1>(0, 0).norm();
+  double sum_sq = 0;
+  for (size_t i = 0; i < estimated.size(); ++i) {
+    const Eigen::Vector3d aligned = sim3.block<3, 3>(0, 0) * estimated[i] + sim3.block<3, 1>(0, 3);
+    const double err = (aligned - truth[i]).norm();
+    sum_sq += err * err;
+    e->walk.ate_max_m = std::max(e->walk.ate_max_m, err);
+  }
+  e->walk.ate_rmse_m = std::sqrt(sum_sq / static_cast<double>(estimated.size()));
+  e->evaluated = true;
 }
 
 }  // namespace
@@ -108,6 +172,20 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
     e.entry = dir.filename().string();
     EntryReport report;
     try {
+      std::string kind_error;
+      const std::string kind = ReadEntryKind(dir, &kind_error);
+      if (kind == "walk") {
+        EvaluateWalkEntry(dir, *gt, feed, options.feed_slack_s, &e);
+        if (e.evaluated) {
+          ++result.walks_evaluated;
+          if (e.walk.path_length_m > 0) {
+            result.walk_ate_rel_max =
+                std::max(result.walk_ate_rel_max, e.walk.ate_rmse_m / e.walk.path_length_m);
+          }
+        }
+        result.entries.push_back(e);
+        continue;
+      }
       if (std::string error = ReadEntryReport(dir, &report); !error.empty()) {
         e.problem = error;
         result.entries.push_back(e);
@@ -154,7 +232,7 @@ EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options) {
     result.entries.push_back(e);
   }
   result.ok = true;
-  result.evaluated = static_cast<int>(rot.size());
+  result.evaluated = static_cast<int>(rot.size()) + result.walks_evaluated;
   result.rot_err_median_deg = Percentile(rot, 50);
   result.trans_err_median_deg = Percentile(trans, 50);
   result.rot_err_max_deg = rot.empty() ? 0 : *std::max_element(rot.begin(), rot.end());
@@ -172,10 +250,21 @@ std::string FormatEntryEval(const EntryEvalResult& r) {
       s << "not evaluated (" << e.problem << ")\n";
       continue;
     }
+    if (e.kind == "walk") {
+      s << "walk of " << e.walk.keyframes << " keyframes, " << e.walk.segments << " segments ("
+        << e.walk.stop_reason << "): " << e.walk.evaluated_keyframes << " evaluated, ATE RMSE "
+        << e.walk.ate_rmse_m << " m over " << e.walk.path_length_m << " m, max " << e.walk.ate_max_m
+        << " m, scale " << e.walk.sim3_scale << " m/unit\n";
+      continue;
+    }
     s << "t " << e.time_a_s << " -> " << e.time_b_s << " s, baseline " << e.baseline_m
       << " m, gt rotation " << e.gt_rotation_deg << " deg: rot err " << e.rot_err_deg
       << " deg, trans dir err " << e.trans_err_deg << " deg, " << e.mesh_vertices
       << " mesh vertices\n";
+  }
+  if (r.walks_evaluated > 0) {
+    s << "walks evaluated: " << r.walks_evaluated << ", largest ATE RMSE / path "
+      << 100.0 * r.walk_ate_rel_max << " %\n";
   }
   s << "entries: " << r.entries.size() << ", evaluated " << r.evaluated << "; rot err median "
     << r.rot_err_median_deg << " max " << r.rot_err_max_deg << " deg; trans dir err median "
@@ -186,8 +275,20 @@ std::string FormatEntryEval(const EntryEvalResult& r) {
 std::string EntryEvalToJson(const EntryEvalResult& r) {
   json entries = json::array();
   for (const EntryEval& e : r.entries) {
-    json j = {{"entry", e.entry}, {"reconstructed", e.reconstructed}, {"evaluated", e.evaluated}};
-    if (e.evaluated) {
+    json j = {{"entry", e.entry},
+              {"kind", e.kind},
+              {"reconstructed", e.reconstructed},
+              {"evaluated", e.evaluated}};
+    if (e.evaluated && e.kind == "walk") {
+      j["walk"] = {{"keyframes", e.walk.keyframes},
+                   {"segments", e.walk.segments},
+                   {"evaluated_keyframes", e.walk.evaluated_keyframes},
+                   {"ate_rmse_m", e.walk.ate_rmse_m},
+                   {"ate_max_m", e.walk.ate_max_m},
+                   {"path_length_m", e.walk.path_length_m},
+                   {"sim3_scale", e.walk.sim3_scale},
+                   {"stop_reason", e.walk.stop_reason}};
+    } else if (e.evaluated) {
       j.update({{"time_a_s", e.time_a_s},
                 {"time_b_s", e.time_b_s},
                 {"rot_err_deg", e.rot_err_deg},
@@ -204,7 +305,9 @@ std::string EntryEvalToJson(const EntryEvalResult& r) {
       {"entries", r.entries.size()},
       {"evaluated", r.evaluated},
       {"rot_err_deg", {{"median", r.rot_err_median_deg}, {"max", r.rot_err_max_deg}}},
-      {"trans_err_deg", {{"median", r.trans_err_median_deg}, {"max", r.trans_err_max_deg}}}};
+      {"trans_err_deg", {{"median", r.trans_err_median_deg}, {"max", r.trans_err_max_deg}}},
+      {"walks_evaluated", r.walks_evaluated},
+      {"walk_ate_rel_max", r.walk_ate_rel_max}};
   return JsonText(json({{"summary", summary}, {"entries", entries}}), 2) + "\n";
 }
 

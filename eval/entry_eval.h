@@ -1,6 +1,8 @@
 #pragma once
 // The daemon's own outputs against ground truth: each spool entry's report.json (relative pose
-// cam_b_from_cam_a, keyframe times) compared with a TUM-format dataset's groundtruth.txt.
+// cam_b_from_cam_a, keyframe times) compared with a TUM-format dataset's groundtruth.txt; a
+// walk's entry (kind walk) by its map segment's keyframe poses: the ATE after a Sim(3)
+// alignment (Umeyama 1991), as `monomesh eval --walk` reports it.
 //
 // Keyframe times: with the replay camera, a keyframe's source_time_s is the dataset time. Through
 // a real device (v4l2loopback fed by `monomesh feed --log FILE`), it is the driver's
@@ -37,6 +39,7 @@ struct EntryEvalOptions {
 
 struct EntryEval {
   std::string entry;           ///< Folder name.
+  std::string kind = "pair";   ///< "pair" or "walk" (report.json's kind).
   bool reconstructed = false;  ///< The report says the reconstruction succeeded.
   bool evaluated = false;      ///< Ground truth found for both keyframes.
   std::string problem;         ///< Why not evaluated (or the reconstruction's failure reason).
@@ -46,6 +49,18 @@ struct EntryEval {
   double baseline_m = 0;              ///< Ground-truth distance between the two camera centres.
   double gt_rotation_deg = 0;         ///< Ground-truth rotation angle between the keyframes.
   int mesh_vertices = 0;
+  /// A walk: its keyframes (all segments), the map segment's registered keyframes with ground
+  /// truth, and their ATE after a Sim(3) alignment (Umeyama) over the path they span.
+  struct Walk {
+    int keyframes = 0;
+    int segments = 0;
+    int evaluated_keyframes = 0;
+    double ate_rmse_m = 0;
+    double ate_max_m = 0;
+    double path_length_m = 0;
+    double sim3_scale = 0;  ///< Metres per map unit.
+    std::string stop_reason;
+  } walk;
 };
 
 struct EntryEvalResult {
@@ -55,6 +70,9 @@ struct EntryEvalResult {
   int evaluated = 0;
   double rot_err_median_deg = 0, rot_err_max_deg = 0;
   double trans_err_median_deg = 0, trans_err_max_deg = 0;
+  int walks_evaluated = 0;
+  /// The largest of the walks' ATE RMSE as a share of their path length.
+  double walk_ate_rel_max = 0;
 };
 
 EntryEvalResult EvaluateSpoolEntries(const EntryEvalOptions& options);

@@ -17,6 +17,7 @@
 #include "dataset/tum.h"
 #include "entry/json_text.h"
 #include "eval/tum_pairs.h"
+#include "map/walk_tracker.h"
 
 namespace mm {
 namespace {
@@ -85,18 +86,18 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
 
   BouguetCamera sized = camera;
   std::optional<Undistorter> undistorter;
-  std::optional<WalkMap> map;
-  std::optional<KeyframeGate> gate;
+  std::optional<WalkMap> every_frame_map;  // every_frame: each frame straight into the map.
+  std::optional<WalkTracker> tracker;      // Else: the walk's keyframe policy.
+  const WalkMap* map = nullptr;
   const double cpu_start = ThreadCpuSeconds();
 
-  auto add_keyframe = [&](const cv::Mat& gray, size_t frame) {
+  auto keyframe_eval = [&](size_t frame, const WalkKeyframeSummary& summary, double cpu_s) {
     WalkKeyframeEval k;
     k.frame = static_cast<int>(frame);
     k.timestamp_s = frames[frame].timestamp_s;
     k.image = frames[frame].path.string();
-    const double cpu0 = ThreadCpuSeconds();
-    k.walk = map->AddKeyframe(gray, k.timestamp_s);
-    k.cpu_s = ThreadCpuSeconds() - cpu0;
+    k.walk = summary;
+    k.cpu_s = cpu_s;
     result.keyframes.push_back(std::move(k));
   };
 
@@ -123,25 +124,22 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       image = undistorter->Apply(image);
     }
     const Eigen::Matrix3d k = undistorter ? undistorter->output_camera().K() : sized.K();
-    if (!map) map.emplace(k, options.walk);
     ++result.summary.frames;
     if (options.every_frame) {
-      add_keyframe(image, i);
+      if (!every_frame_map) map = &every_frame_map.emplace(k, options.walk);
+      const double cpu0 = ThreadCpuSeconds();
+      const WalkKeyframeSummary summary =
+          every_frame_map->AddKeyframe(image, frames[i].timestamp_s);
+      keyframe_eval(i, summary, ThreadCpuSeconds() - cpu0);
       continue;
     }
-    if (!gate) {
-      gate.emplace(k, options.gate);
-      add_keyframe(image, i);
-      gate->Start(image);
-      continue;
+    if (!tracker) {
+      tracker.emplace(k, WalkTrackerOptions{.walk = options.walk, .gate = options.gate});
+      map = &tracker->map();
     }
-    const GateDecision decision = gate->Update(image);
-    if (decision.verdict != GateDecision::Verdict::kWait) {
-      // Enough parallax for a new keyframe, or the view left the last one's (lost track):
-      // the map decides whether it registers.
-      add_keyframe(image, i);
-      gate->Start(image);
-    }
+    const double cpu0 = ThreadCpuSeconds();
+    const WalkFrameStep step = tracker->AddFrame(image, frames[i].timestamp_s);
+    if (step.added) keyframe_eval(i, *step.added, ThreadCpuSeconds() - cpu0);
   }
   WalkEvalSummary& s = result.summary;
   s.cpu_total_s = ThreadCpuSeconds() - cpu_start;

@@ -42,8 +42,7 @@ std::string WalkOptions::Check() const {
   return {};
 }
 
-WalkMap::WalkMap(const Eigen::Matrix3d& K, const WalkOptions& options)
-    : K_(K), options_(options) {}
+WalkMap::WalkMap(const Eigen::Matrix3d& K, const WalkOptions& options) : K_(K), options_(options) {}
 
 Eigen::Vector2d WalkMap::Pixel(int keyframe, int keypoint) const {
   const cv::Point2f& p = keyframes_[static_cast<size_t>(keyframe)]
@@ -106,6 +105,11 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   }
   summary.registered = keyframes_.back().registered;
   summary.segment = keyframes_.back().segment;
+  // Descriptors are read only for the newest keyframes (matching) and the window (the
+  // search by projection compares with a point's newest observation, inside the window):
+  // older ones are released, which bounds a long walk's memory (keypoints stay for the BA).
+  const int keep = std::max(options_.window, options_.match_keyframes) + 1;
+  if (index >= keep) keyframes_[static_cast<size_t>(index - keep)].features.descriptors.release();
   summary.time_s = SecondsSince(start);
   summary.pose_s = summary.time_s - summary.sift_s - summary.matching_s - summary.bundle_s;
   return summary;
@@ -283,9 +287,10 @@ int WalkMap::SearchByProjection(int keyframe) {
       if (x.z() <= 0) continue;
       const Eigen::Vector2d pixel = Project(K_, x);
       const WalkPoint::Observation& newest = point.observations.back();
-      const cv::Mat reference =
-          keyframes_[static_cast<size_t>(newest.keyframe)].features.descriptors.row(
-              newest.keypoint);
+      const cv::Mat& descriptors =
+          keyframes_[static_cast<size_t>(newest.keyframe)].features.descriptors;
+      if (newest.keypoint >= descriptors.rows) continue;  // Released (older than the window).
+      const cv::Mat reference = descriptors.row(newest.keypoint);
       const int cx = static_cast<int>(pixel.x() / cell);
       const int cy = static_cast<int>(pixel.y() / cell);
       double best = std::numeric_limits<double>::infinity(), second = best;

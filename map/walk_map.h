@@ -78,6 +78,8 @@ struct WalkKeyframe {
   int segment = 0;
   bool registered = false;
   Eigen::Isometry3d cam_from_segment = Eigen::Isometry3d::Identity();
+  /// Keypoints in the full-size image. The descriptors are released once the keyframe is
+  /// older than the window and the matched keyframes (they are not read again).
   Features features;
   std::vector<int> point_of_keypoint;  ///< Map point per keypoint, -1 when none.
 };

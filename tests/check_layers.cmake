@@ -17,7 +17,7 @@ set(rules
   "map:base/|calib/|recon/"
   "render:base/|recon/"
   "session:base/|calib/|recon/"
-  "entry:base/|scale/|calib/|recon/|render/|spool/|session/"
+  "entry:base/|scale/|calib/|recon/|map/|render/|spool/|session/"
   "eval:base/|scale/|calib/|dataset/|recon/|map/|render/|entry/|session/"
   "synth:base/|calib/|recon/|render/"
   "capture:base/|dataset/"

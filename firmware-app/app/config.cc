@@ -151,6 +151,7 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "trigger.active_low",
                                               "trigger.bias",
                                               "trigger.debounce_ms",
+                                              "trigger.long_press_ms",
                                               "keyframes.parallax_deg",
                                               "keyframes.min_tracks",
                                               "keyframes.min_inliers",
@@ -167,6 +168,11 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "recon.refine_points",
                                               "mesh.mode",
                                               "mesh.vertex_budget",
+                                              "walk.parallax_deg",
+                                              "walk.max_keyframes",
+                                              "walk.timeout_s",
+                                              "walk.mesh",
+                                              "walk.max_mesh_parts",
                                               "scale.source",
                                               "scale.camera_height_m",
                                               "scale.camera_pitch_deg",
@@ -216,6 +222,8 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   const auto* trigger = r.Table("trigger");
   std::string chip;
   r.Get(trigger, "trigger", "gpio_chip", &chip);
+  r.GetNumber(trigger, "trigger", "long_press_ms", {0, 60000}, &c.long_press_ms);
+  c.button.report_release = c.long_press_ms > 0;
   if (!chip.empty()) {
     c.button_enabled = true;
     c.button.chip = chip;
@@ -274,6 +282,26 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
   if (const std::string problem = c.gate.Check(); !problem.empty()) {
     const std::string key = problem.substr(0, problem.find(':'));
     r.Require(false, keyframes, "keyframes", key.c_str(), problem.substr(problem.find(':') + 2));
+  }
+
+  const auto* walk = r.Table("walk");
+  c.walk.gate = c.gate;
+  r.GetNumber(walk, "walk", "parallax_deg", {0.0, 90.0}, &c.walk.gate.parallax_deg);
+  r.GetNumber(walk, "walk", "max_keyframes", {2, 100000}, &c.walk.max_keyframes);
+  r.GetNumber(walk, "walk", "timeout_s", {0.0, 86400.0}, &c.walk.timeout_s);
+  r.Require(c.walk.timeout_s > 0, walk, "walk", "timeout_s", "must be > 0");
+  r.GetChoice(
+      walk, "walk", "mesh",
+      [](const std::string& word) -> std::optional<bool> {
+        if (word == "dense") return true;
+        if (word == "sparse") return false;
+        return std::nullopt;
+      },
+      [](bool dense) { return dense ? "dense" : "sparse"; }, "a mesh mode (dense or sparse)",
+      &c.walk.dense_mesh);
+  r.GetNumber(walk, "walk", "max_mesh_parts", {1, 10000}, &c.walk.max_mesh_parts);
+  if (const std::string problem = c.walk.gate.Check(); !problem.empty()) {
+    r.Require(false, walk, "walk", "parallax_deg", problem);
   }
 
   const auto* scale = r.Table("scale");

@@ -10,6 +10,8 @@
 
 #include "app/hooks.h"
 #include "capture/trigger.h"
+#include "map/walk_map.h"
+#include "map/walk_mesh.h"
 #include "recon/keyframe_gate.h"
 #include "recon/pipeline.h"
 #include "scale/metric_scale.h"
@@ -38,12 +40,27 @@ struct DaemonConfig {
   /// Empty chip: no button (the control socket and SIGUSR1 still trigger).
   GpioButtonOptions button;
   bool button_enabled = false;
+  /// [trigger] long_press_ms: a press held this long starts or stops a walk, a shorter one is
+  /// a capture (acted on at the release). 0: every press is a capture, at the press.
+  int long_press_ms = 1000;
 
   KeyframeGateOptions gate;          ///< [keyframes] parallax_deg, min_tracks, min_inliers
   double keyframe_timeout_s = 30.0;  ///< [keyframes] timeout_s
   int max_b_tries = CaptureSessionOptions{}.max_tries;  ///< [keyframes] max_tries
 
   PairOptions recon;  ///< [recon] ...
+
+  /// [walk]: walk mode (docs/walk.md), `monomesh ctl walk start|stop` or a long press.
+  struct Walk {
+    /// The walk's gate: [keyframes] and [recon] tests with [walk] parallax_deg.
+    KeyframeGateOptions gate;
+    WalkOptions map;
+    int max_keyframes = 300;   ///< [walk] max_keyframes: the walk ends ("keyframe limit").
+    double timeout_s = 900.0;  ///< [walk] timeout_s: the walk ends ("timeout").
+    bool dense_mesh = true;    ///< [walk] mesh: dense (default) or sparse keyframe meshes.
+    int max_mesh_parts = WalkMeshOptions{}.max_parts;  ///< [walk] max_mesh_parts
+  };
+  Walk walk;
 
   /// [scale] source, camera_height_m, camera_pitch_deg, min_baseline_m: metres for the
   /// entries (scale/metric_scale.h); source none leaves them up to scale.

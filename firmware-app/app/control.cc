@@ -174,8 +174,8 @@ void WatchControlEvents(const std::filesystem::path& path,
     // Without keep_watching the read waits without limit, and times out never.
     bool whole = false;
     try {
-      whole = ReadLine(fd.get(), path, std::chrono::milliseconds(keep_watching ? 250 : -1),
-                       &pending);
+      whole =
+          ReadLine(fd.get(), path, std::chrono::milliseconds(keep_watching ? 250 : -1), &pending);
     } catch (const ControlTimeout&) {
       if (!keep_watching()) return;
       continue;  // ReadLine keeps what it read so far in `pending`.

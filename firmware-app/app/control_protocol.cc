@@ -58,6 +58,8 @@ ControlCommand ParseControlCommand(std::string_view line) {
   if (line == "status") return ControlCommand::kStatus;
   if (line == "ping") return ControlCommand::kPing;
   if (line == "watch") return ControlCommand::kWatch;
+  if (line == "walk start") return ControlCommand::kWalkStart;
+  if (line == "walk stop") return ControlCommand::kWalkStop;
   if (line.starts_with("odom ")) return ControlCommand::kOdom;
   return ControlCommand::kUnknown;
 }
@@ -69,7 +71,7 @@ std::string_view OdomArguments(std::string_view line) {
 
 std::string UnknownControlCommandError(std::string_view request) {
   return "unknown command '" + std::string(request) +
-         "' (known: trigger, status, ping, odom, watch)";
+         "' (known: trigger, status, ping, odom, watch, walk start, walk stop)";
 }
 
 }  // namespace mm

@@ -52,7 +52,16 @@ class ControlRequestReader {
   Status status_ = Status::kNeedMore;
 };
 
-enum class ControlCommand { kTrigger, kStatus, kPing, kOdom, kWatch, kUnknown };
+enum class ControlCommand {
+  kTrigger,
+  kStatus,
+  kPing,
+  kOdom,
+  kWatch,
+  kWalkStart,
+  kWalkStop,
+  kUnknown
+};
 
 /// The command a request line names (its first word, for `odom` the rest are its arguments);
 /// a trailing '\r' (a telnet line) is ignored.

@@ -24,9 +24,11 @@
 
 #include "app/control.h"
 #include "app/control_protocol.h"
+#include "app/frame_info.h"
 #include "app/gate_thread.h"
 #include "app/hooks.h"
 #include "app/pair_job.h"
+#include "app/walk_thread.h"
 #include "base/unique_fd.h"
 #include "base/wall_clock.h"
 #include "calib/calib_io.h"
@@ -81,14 +83,6 @@ struct JobOutcome {
   std::string refusal;  // The reconstruction's reason.
   double seconds = 0.0;
 };
-
-KeyframeInfo InfoOf(const Frame& f) {
-  return {.sequence = f.sequence,
-          .source_time_s = f.source_time_s,
-          .capture_time_ns = f.capture_time_ns,
-          .capture_realtime_ns = RealtimeFromMonotonicNs(f.capture_time_ns),
-          .source = f.source_id};
-}
 
 // The robot's odometry (`odom` lines on the control socket): the event loop adds samples, the
 // worker looks up the keyframes' positions once the stream has reached keyframe B's time.
@@ -265,7 +259,7 @@ class Worker {
           have_features = true;
         }
       }
-      const KeyframeInfo a = InfoOf(*job.a), b = InfoOf(*job.b);
+      const KeyframeInfo a = KeyframeInfoOf(*job.a), b = KeyframeInfoOf(*job.b);
       PairScaleInputs scale;
       if (config_.scale.source == ScaleSource::kOdometry ||
           config_.scale.source == ScaleSource::kAuto) {
@@ -341,6 +335,8 @@ constexpr size_t kMaxWatchers = 8;
 // Gate progress events while tracking, at most this often (the gate sees every frame).
 constexpr auto kGateEventPeriod = std::chrono::milliseconds(200);
 constexpr auto kAcceptBackoff = std::chrono::milliseconds(200);  // After EMFILE / ENFILE.
+// A walk ends when the camera has failed this long without a frame ("camera lost").
+constexpr auto kWalkCameraGrace = std::chrono::seconds(2);
 
 // A control-socket client: the request line is collected across reads (a command may arrive in
 // several pieces).
@@ -351,7 +347,7 @@ struct Client {
   bool watching = false;  // Subscribed with `watch`: gets the events, sends nothing more.
 };
 
-enum class State { kIdle, kTracking, kReconstructing };
+enum class State { kIdle, kTracking, kReconstructing, kWalking };
 
 const char* Name(State s) {
   switch (s) {
@@ -361,6 +357,8 @@ const char* Name(State s) {
       return "tracking";
     case State::kReconstructing:
       return "reconstructing";
+    case State::kWalking:
+      return "walking";
   }
   return "?";
 }
@@ -381,6 +379,10 @@ class Daemon {
 
  private:
   void OnTrigger(const char* origin, json* reply);
+  json OnWalkStart(const char* origin);
+  json OnWalkStop(const char* origin, const std::string& reason);
+  void OnWalkDone();
+  void OnTriggerEvent(Trigger* trigger, const TriggerEvent& event);
   void OnFrame();
   void OnGateDone();
   void ApplyGate(const TrackedFrame& tracked);
@@ -416,6 +418,7 @@ class Daemon {
   UniqueFd frame_event_;
   UniqueFd done_event_;
   UniqueFd gate_event_;
+  UniqueFd walk_event_;
   UniqueFd signal_fd_;
   UniqueFd timer_fd_;
   UniqueFd listen_fd_;
@@ -430,6 +433,13 @@ class Daemon {
   SharedOdometry odometry_;                         // Before worker_, which uses it until it ends.
   std::unique_ptr<Worker> worker_;
   std::unique_ptr<GateThread> gate_;  // Before session_ goes: declared after it.
+  std::unique_ptr<WalkThread> walk_;
+  uint64_t walks_ = 0;
+  uint64_t last_walk_sequence_ = 0;  // The newest frame offered to the walk.
+  json last_walk_ = nullptr;
+  // The GPIO button's last press (CLOCK_MONOTONIC ns), when long presses are told apart.
+  std::optional<int64_t> press_time_ns_;
+  std::optional<std::chrono::steady_clock::time_point> camera_failing_since_;
 
   State state_ = State::kIdle;
   uint64_t captures_ = 0;
@@ -491,6 +501,7 @@ int Daemon::Run() {
   frame_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   done_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   gate_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
+  walk_event_.reset(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC));
   sigset_t signals;
   sigemptyset(&signals);
   for (int s : {SIGTERM, SIGINT, SIGHUP, SIGCHLD}) sigaddset(&signals, s);  // SIGCHLD: hooks.
@@ -507,8 +518,8 @@ int Daemon::Run() {
   timer_fd_.reset(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC));
   const itimerspec period{{0, 100'000'000}, {0, 100'000'000}};
   ::timerfd_settime(timer_fd_.get(), 0, &period, nullptr);
-  for (int fd : {frame_event_.get(), done_event_.get(), gate_event_.get(), signal_fd_.get(),
-                 timer_fd_.get()}) {
+  for (int fd : {frame_event_.get(), done_event_.get(), gate_event_.get(), walk_event_.get(),
+                 signal_fd_.get(), timer_fd_.get()}) {
     AddFd(fd);
   }
 
@@ -560,6 +571,7 @@ int Daemon::Run() {
   worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_, &odometry_,
                                      done_event_.get());
   gate_ = std::make_unique<GateThread>(undistorter_, &session_, gate_event_.get());
+  walk_ = std::make_unique<WalkThread>(config_, undistorter_, &spool_, walk_event_.get());
 
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   last_watchdog_ = std::chrono::steady_clock::now();
@@ -596,6 +608,13 @@ int Daemon::Run() {
       } else if (fd == gate_event_.get()) {
         DrainEventFd(fd);
         OnGateDone();
+      } else if (fd == walk_event_.get()) {
+        DrainEventFd(fd);
+        if (std::optional<std::string> fatal = walk_->fatal_error()) {
+          spdlog::critical("internal error: {}", *fatal);
+          return kExitSoftware;
+        }
+        OnWalkDone();
       } else if (fd == done_event_.get()) {
         DrainEventFd(fd);
         if (std::optional<std::string> fatal = worker_->fatal_error()) {
@@ -612,9 +631,8 @@ int Daemon::Run() {
         const int got = trigger->ReadEvent(&event, &error);
         if (got < 0) {
           spdlog::error("trigger: {}", error);
-        } else if (got > 0 && event.pressed) {
-          json reply;
-          OnTrigger(event.source.c_str(), &reply);
+        } else if (got > 0) {
+          OnTriggerEvent(trigger, event);
         }
       } else if (fd == listen_fd_.get()) {
         OnAccept();
@@ -639,6 +657,13 @@ int Daemon::Run() {
 
 void Daemon::FinishOnStop() {
   stopping_ = true;
+  if (state_ == State::kWalking) {
+    // The walk's entry is written with what it has (the unit's TimeoutStopSec allows for it).
+    spdlog::info("stopping: walk {} ends; its entry is written first", walks_);
+    walk_->Stop("daemon stopping");
+    walk_->WaitFinished();
+    OnWalkDone();
+  }
   if (state_ == State::kReconstructing) {
     // The unit's TimeoutStopSec leaves the pair (seconds on a board) time to finish.
     spdlog::info("stopping: capture {} is being reconstructed; its entry is finished first",
@@ -651,6 +676,7 @@ void Daemon::FinishOnStop() {
           {"capture", captures_},
           {"error", "stopped while tracking, before keyframe B"}});
   }
+  walk_.reset();
   gate_.reset();  // After OnJobDone, which settles the gate first.
   worker_.reset();
 }
@@ -702,6 +728,130 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   *reply = {{"ok", true}, {"capture", captures_}};
 }
 
+// The GPIO button with [trigger] long_press_ms: a press held that long starts or stops a walk, a
+// shorter one is a capture (both at the release). Otherwise a press is a capture at once.
+void Daemon::OnTriggerEvent(Trigger* trigger, const TriggerEvent& event) {
+  const bool gestures = config_.long_press_ms > 0 && dynamic_cast<GpioButton*>(trigger) != nullptr;
+  if (!gestures) {
+    if (event.pressed) {
+      json reply;
+      OnTrigger(event.source.c_str(), &reply);
+    }
+    return;
+  }
+  if (event.pressed) {
+    press_time_ns_ = event.time_ns;
+    return;
+  }
+  if (!press_time_ns_) return;  // A release without its press (held at the start).
+  const int64_t held_ns = event.time_ns - *press_time_ns_;
+  press_time_ns_.reset();
+  if (held_ns >= int64_t{config_.long_press_ms} * 1'000'000) {
+    const std::string origin = event.source + " (long press)";
+    const json reply = state_ == State::kWalking ? OnWalkStop(origin.c_str(), "operator")
+                                                 : OnWalkStart(origin.c_str());
+    if (!reply.value("ok", false)) {
+      spdlog::warn("{}: {}", origin, reply.value("error", std::string()));
+    }
+    return;
+  }
+  json reply;
+  OnTrigger(event.source.c_str(), &reply);
+}
+
+json Daemon::OnWalkStart(const char* origin) {
+  const auto refuse = [&](const std::string& error) {
+    spdlog::warn("walk start ({}) refused: {}", origin, error);
+    Emit({{"event", "walk_refused"}, {"origin", origin}, {"error", error}});
+    return json{{"ok", false}, {"error", error}};
+  };
+  if (state_ != State::kIdle) return refuse(std::string("busy: ") + Name(state_));
+  if (walk_->status().walking) return refuse("busy: the last walk's entry is being written");
+  FramePtr latest = capture_->Latest();
+  if (!latest) return refuse("no frame from the camera yet");
+  ++walks_;
+  last_walk_sequence_ = latest->sequence;
+  spdlog::info("walk {} ({}): started at frame {} ({})", walks_, origin, latest->sequence,
+               latest->source_id);
+  Emit({{"event", "walk_started"},
+        {"walk", walks_},
+        {"origin", origin},
+        {"frame", latest->sequence}});
+  walk_->Start(walks_, std::move(latest));
+  SetState(State::kWalking);
+  return {{"ok", true}, {"walk", walks_}};
+}
+
+json Daemon::OnWalkStop(const char* origin, const std::string& reason) {
+  if (state_ != State::kWalking) {
+    const std::string error = std::string("not walking (") + Name(state_) + ")";
+    spdlog::warn("walk stop ({}) refused: {}", origin, error);
+    return {{"ok", false}, {"error", error}};
+  }
+  const WalkStatus w = walk_->status();
+  if (w.finishing) return {{"ok", false}, {"error", "walk already stopping"}};
+  spdlog::info("walk {}: stopped ({}, {}) after {} keyframes; writing its entry", w.walk, origin,
+               reason, w.keyframes);
+  Emit({{"event", "walk_stopping"},
+        {"walk", w.walk},
+        {"reason", reason},
+        {"keyframes", w.keyframes}});
+  walk_->Stop(reason);
+  return {{"ok", true}, {"walk", w.walk}, {"keyframes", w.keyframes}};
+}
+
+void Daemon::OnWalkDone() {
+  for (const WalkKeyframeSummary& k : walk_->TakeKeyframes()) {
+    if (!k.failure.empty()) {
+      spdlog::warn("walk {}: keyframe {} starts segment {}: {}", walks_, k.index, k.segment,
+                   k.failure);
+    } else {
+      spdlog::info("walk {}: keyframe {} registered ({} PnP inliers, {} new points, {:.3f} s)",
+                   walks_, k.index, k.pnp_inliers, k.new_points, k.time_s);
+    }
+    Emit({{"event", "walk_keyframe"},
+          {"walk", walks_},
+          {"keyframe", k.index},
+          {"segment", k.segment},
+          {"registered", k.registered},
+          {"failure", k.failure},
+          {"pnp_inliers", k.pnp_inliers},
+          {"new_points", k.new_points},
+          {"seconds", k.time_s}});
+  }
+  while (std::optional<WalkOutcome> o = walk_->TakeOutcome()) {
+    if (o->ok) {
+      spdlog::info(
+          "walk {}: map written to {} ({} keyframes, {} registered, {} segments; "
+          "{:.2f} s; ended by {})",
+          o->walk, o->entry, o->keyframes, o->registered, o->segments, o->seconds, o->stop_reason);
+      Emit({{"event", "walk_entry"},
+            {"walk", o->walk},
+            {"entry", o->entry},
+            {"keyframes", o->keyframes},
+            {"registered", o->registered},
+            {"segments", o->segments},
+            {"reason", o->stop_reason},
+            {"seconds", o->seconds}});
+      LogHookStart(hooks_.OnEntry(o->entry, o->walk));
+    } else {
+      spdlog::error("walk {}: {}", o->walk, o->error);
+      Emit({{"event", "walk_failed"}, {"walk", o->walk}, {"error", o->error}});
+      LogHookStart(hooks_.OnFailure(o->error, o->walk));
+    }
+    last_walk_ = {{"walk", o->walk},
+                  {"ok", o->ok},
+                  {"entry", o->entry},
+                  {"error", o->error},
+                  {"reason", o->stop_reason},
+                  {"keyframes", o->keyframes},
+                  {"registered", o->registered},
+                  {"segments", o->segments}};
+    if (state_ == State::kWalking) SetState(State::kIdle);
+  }
+  OnFrame();  // A newer frame may be waiting.
+}
+
 double Daemon::NowSeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -721,6 +871,14 @@ void Daemon::EndCapture(const std::string& error) {
 }
 
 void Daemon::OnFrame() {
+  if (state_ == State::kWalking) {
+    // The walk thread takes the newest frame when it is free (the others are skipped).
+    FramePtr frame = capture_->Latest();
+    if (frame && frame->sequence > last_walk_sequence_ && walk_->Offer(frame)) {
+      last_walk_sequence_ = frame->sequence;
+    }
+    return;
+  }
   // Frames feed the session while a capture is open, also while a B is being reconstructed
   // (the tracks stay alive for a later B if that one is refused). The gate thread tracks A's
   // corners into the newest frame when it is free (frames that arrive meanwhile are skipped;
@@ -865,6 +1023,21 @@ void Daemon::OnTimer() {
   if (state_ == State::kTracking &&
       session_.OnTime(NowSeconds()) == CaptureSession::Step::kFailed) {
     EndCapture(session_.failure_reason());
+  }
+  if (state_ == State::kWalking) {
+    const WalkStatus walk = walk_->status();
+    const CaptureStats stats = capture_->stats();
+    if (!camera_failing_) camera_failing_since_.reset();
+    if (camera_failing_ && !camera_failing_since_) camera_failing_since_ = now;
+    if (!walk.finishing) {
+      if (walk.seconds > config_.walk.timeout_s) {
+        OnWalkStop("timer", "timeout");
+      } else if (stats.end_of_stream) {
+        OnWalkStop("camera", "camera ended");
+      } else if (camera_failing_since_ && now - *camera_failing_since_ > kWalkCameraGrace) {
+        OnWalkStop("camera", "camera lost");
+      }
+    }
   }
   if (watchdog_usec_ > 0 && now - last_watchdog_ > std::chrono::microseconds(watchdog_usec_ / 2)) {
     sd_notify(0, "WATCHDOG=1");
@@ -1125,6 +1298,10 @@ json Daemon::Answer(const std::string& request) {
       return {{"ok", true}};
     case ControlCommand::kOdom:
       return OnOdom(request);
+    case ControlCommand::kWalkStart:
+      return OnWalkStart("control socket");
+    case ControlCommand::kWalkStop:
+      return OnWalkStop("control socket", "operator");
     case ControlCommand::kWatch:  // Served by OnClient (the connection stays).
     case ControlCommand::kUnknown:
       break;
@@ -1163,6 +1340,21 @@ json Daemon::Status() {
             {"reason", session_.last_decision().reason}}},
           {"scale",
            {{"source", ScaleSourceName(config_.scale.source)}, {"odometry", odometry_.Describe()}}},
+          {"walk",
+           [this] {
+             const WalkStatus w = walk_->status();
+             return json{{"walking", w.walking},
+                         {"finishing", w.finishing},
+                         {"walk", w.walking ? w.walk : walks_},
+                         {"frames", w.frames},
+                         {"keyframes", w.keyframes},
+                         {"registered", w.registered},
+                         {"segment", w.segment},
+                         {"parallax_deg", w.parallax_deg},
+                         {"target_deg", config_.walk.gate.parallax_deg},
+                         {"seconds", w.seconds},
+                         {"last_result", last_walk_}};
+           }()},
           {"spool", spool_.dir().string()},
           {"last_result", last_result_}};
 }

@@ -1,5 +1,5 @@
-// `monomesh ctl trigger|status|ping|watch|odom T X Y Z [QX QY QZ QW]`: talk to a running
-// monomeshd over its control socket.
+// `monomesh ctl trigger|status|ping|watch|walk start|walk stop|odom T X Y Z [QX QY QZ QW]`: talk to
+// a running monomeshd over its control socket.
 
 #include <algorithm>
 #include <iostream>
@@ -83,11 +83,12 @@ Runner AddCtlCommand(CLI::App& app) {
     std::vector<std::string> until;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("command", args->command, "trigger | status | ping | watch | odom")
+  cmd->add_option("command", args->command, "trigger | status | ping | watch | odom | walk")
       ->required()
-      ->check(CLI::IsMember({"trigger", "status", "ping", "watch", "odom"}));
+      ->check(CLI::IsMember({"trigger", "status", "ping", "watch", "odom", "walk"}));
   cmd->add_option("values", args->odom,
-                  "With odom: T X Y Z [QX QY QZ QW] (seconds on [scale] odometry_clock, metres)")
+                  "With odom: T X Y Z [QX QY QZ QW] (seconds on [scale] odometry_clock, metres); "
+                  "with walk: start | stop")
       ->expected(0, 7);
   cmd->add_option("--socket", args->socket, "Control socket")->capture_default_str();
   cmd->add_option("--config", args->config, "Take the socket path from this daemon config");
@@ -106,6 +107,12 @@ Runner AddCtlCommand(CLI::App& app) {
         return 2;
       }
       for (const std::string& v : args->odom) command += " " + v;
+    } else if (command == "walk") {
+      if (args->odom.size() != 1 || (args->odom[0] != "start" && args->odom[0] != "stop")) {
+        std::cerr << "monomesh ctl walk: expected start or stop\n";
+        return 2;
+      }
+      command += " " + args->odom[0];
     } else if (!args->odom.empty()) {
       std::cerr << "monomesh ctl " << command << ": takes no values\n";
       return 2;

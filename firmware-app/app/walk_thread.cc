@@ -1,0 +1,242 @@
+#include "app/walk_thread.h"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <ctime>
+
+#include "app/frame_info.h"
+#include "entry/walk_entry.h"
+#include "map/walk_mesh.h"
+#include "recon/pipeline.h"
+
+namespace mm {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+WalkThread::WalkThread(const DaemonConfig& config, const Undistorter& undistorter, Spool* spool,
+                       int done_fd)
+    : config_(config), undistorter_(undistorter), spool_(spool), done_fd_(done_fd) {
+  thread_ = std::thread([this] { RunGuarded(); });
+}
+
+WalkThread::~WalkThread() {
+  {
+    std::lock_guard lock(mutex_);
+    quit_ = true;
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+void WalkThread::Signal() const {
+  const uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(done_fd_, &one, sizeof(one));
+}
+
+void WalkThread::Start(uint64_t walk, FramePtr first) {
+  std::lock_guard lock(mutex_);
+  tracker_ = std::make_unique<WalkTracker>(
+      undistorter_.output_camera().K(),
+      WalkTrackerOptions{.walk = config_.walk.map, .gate = config_.walk.gate});
+  jpegs_.clear();
+  infos_.clear();
+  summaries_.clear();
+  started_ = std::chrono::steady_clock::now();
+  status_ = WalkStatus{.walking = true, .walk = walk};
+  stop_.reset();
+  posted_ = std::move(first);
+  cv_.notify_all();
+}
+
+bool WalkThread::Offer(FramePtr frame) {
+  std::lock_guard lock(mutex_);
+  if (!status_.walking || stop_ || running_ || posted_) return false;
+  posted_ = std::move(frame);
+  cv_.notify_all();
+  return true;
+}
+
+void WalkThread::Stop(const std::string& reason) {
+  std::lock_guard lock(mutex_);
+  if (!status_.walking || stop_) return;
+  stop_ = reason;
+  status_.finishing = true;
+  cv_.notify_all();
+}
+
+void WalkThread::WaitFinished() {
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [&] { return !status_.walking || fatal_error_.has_value(); });
+}
+
+WalkStatus WalkThread::status() const {
+  std::lock_guard lock(mutex_);
+  WalkStatus s = status_;
+  if (s.walking) s.seconds = SecondsSince(started_);
+  return s;
+}
+
+std::vector<WalkKeyframeSummary> WalkThread::TakeKeyframes() {
+  std::lock_guard lock(mutex_);
+  return std::exchange(added_, {});
+}
+
+std::optional<WalkOutcome> WalkThread::TakeOutcome() {
+  std::lock_guard lock(mutex_);
+  if (outcomes_.empty()) return std::nullopt;
+  WalkOutcome o = std::move(outcomes_.front());
+  outcomes_.pop_front();
+  return o;
+}
+
+std::optional<std::string> WalkThread::fatal_error() const {
+  std::lock_guard lock(mutex_);
+  return fatal_error_;
+}
+
+// An exception leaving a std::thread calls std::terminate: it is kept for the loop instead.
+void WalkThread::RunGuarded() {
+  std::string fatal;
+  try {
+    Run();
+    return;
+  } catch (const std::exception& e) {
+    fatal = std::string("walk: ") + e.what();
+  } catch (...) {
+    fatal = "walk: unknown exception";
+  }
+  {
+    std::lock_guard lock(mutex_);
+    fatal_error_ = std::move(fatal);
+  }
+  cv_.notify_all();
+  Signal();
+}
+
+void WalkThread::Run() {
+  for (;;) {
+    FramePtr frame;
+    {
+      std::unique_lock lock(mutex_);
+      cv_.wait(lock, [&] { return quit_ || posted_ || stop_; });
+      if (quit_) return;
+      if (posted_) {
+        frame = std::move(posted_);
+        posted_.reset();
+        running_ = true;
+      }
+    }
+    if (frame) {
+      AddFrame(frame);
+      bool limit = false;
+      {
+        std::lock_guard lock(mutex_);
+        running_ = false;
+        limit = status_.keyframes >= config_.walk.max_keyframes && !stop_;
+        if (limit) {
+          stop_ = "keyframe limit";
+          status_.finishing = true;
+        }
+      }
+      Signal();
+      continue;
+    }
+    WalkOutcome outcome = Finish();
+    {
+      std::lock_guard lock(mutex_);
+      outcomes_.push_back(std::move(outcome));
+      status_.walking = false;
+      status_.finishing = false;
+      stop_.reset();
+      tracker_.reset();
+      jpegs_ = {};
+      infos_ = {};
+      summaries_ = {};
+    }
+    cv_.notify_all();
+    Signal();
+  }
+}
+
+void WalkThread::AddFrame(const FramePtr& frame) {
+  cv::Mat undistorted;
+  try {
+    undistorted = undistorter_.Apply(frame->image);
+  } catch (const std::exception& e) {
+    // A frame that does not fit the calibration: skipped (logged), the walk goes on.
+    spdlog::error("walk: frame {} ({}) skipped: {}", frame->sequence, frame->source_id, e.what());
+    return;
+  }
+  const WalkFrameStep step = tracker_->AddFrame(ToGray(undistorted), frame->source_time_s);
+  std::lock_guard lock(mutex_);
+  ++status_.frames;
+  status_.parallax_deg = tracker_->parallax_deg();
+  if (!step.added) return;
+  jpegs_.push_back(EncodeKeyframeJpeg(undistorted));
+  infos_.push_back(KeyframeInfoOf(*frame));
+  summaries_.push_back(*step.added);
+  ++status_.keyframes;
+  if (step.added->registered && step.added->failure.empty()) ++status_.registered;
+  status_.segment = step.added->segment;
+  status_.parallax_deg = 0.0;  // The new keyframe is the reference now.
+  added_.push_back(*step.added);
+}
+
+WalkOutcome WalkThread::Finish() {
+  const auto start = std::chrono::steady_clock::now();
+  WalkOutcome out;
+  std::string reason;
+  {
+    std::lock_guard lock(mutex_);
+    out.walk = status_.walk;
+    reason = stop_.value_or("operator");
+  }
+  out.stop_reason = reason;
+  const WalkMap& map = tracker_->map();
+  out.keyframes = static_cast<int>(map.keyframes().size());
+  out.segments = map.segments();
+  try {
+    const int segment = LargestSegment(map);
+    WalkMeshOptions mesh_options;
+    mesh_options.dense = config_.walk.dense_mesh;
+    mesh_options.max_parts = config_.walk.max_mesh_parts;
+    mesh_options.dense_mesh = config_.recon.dense_mesh;
+    const BouguetCamera& camera = undistorter_.output_camera();
+    const WalkMesh mesh = BuildWalkMesh(
+        map, segment, camera.K(),
+        [&](int k) { return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]); }, mesh_options);
+    WalkReport report;
+    const EncodedEntry entry =
+        EncodeWalkEntry(WalkEntryInput{.map = &map,
+                                       .mesh = &mesh,
+                                       .keyframe_jpegs = jpegs_,
+                                       .keyframe_infos = infos_,
+                                       .summaries = summaries_,
+                                       .camera = camera,
+                                       .stop_reason = reason,
+                                       .frames = status().frames,
+                                       .walk_seconds = SecondsSince(started_)},
+                        start, &report);
+    out.registered = report.counts.registered;
+    const SpoolCommit commit = spool_->Commit(entry.files, std::time(nullptr));
+    if (commit.ok) {
+      out.ok = true;
+      out.entry = commit.entry.string();
+      if (!commit.error.empty()) spdlog::warn("spool: {}", commit.error);
+    } else {
+      out.error = "spool write failed: " + commit.error;
+    }
+  } catch (const std::exception& e) {
+    out.error = std::string("internal error: ") + e.what();
+  }
+  out.seconds = SecondsSince(start);
+  return out;
+}
+
+}  // namespace mm
