@@ -181,10 +181,9 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
       for (size_t n : list) {
         const WalkPoint::Observation& o =
             points[static_cast<size_t>(point_ids[n])].observations.front();
-        const cv::Point2f& pt = keyframes[static_cast<size_t>(k)]
-                                    .features.keypoints[static_cast<size_t>(o.keypoint)]
-                                    .pt;
-        pixels.emplace_back(pt.x, pt.y);
+        const Eigen::Vector2f& pt =
+            keyframes[static_cast<size_t>(k)].keypoint_pixels[static_cast<size_t>(o.keypoint)];
+        pixels.push_back(pt.cast<double>());
       }
       const auto sampled = SampleColors(image, pixels);
       for (size_t j = 0; j < list.size(); ++j) colors[list[j]] = sampled[j];
@@ -244,10 +243,9 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     for (const WalkPoint::Observation& o : point.observations) {
       const auto it = image_of_keyframe.find(o.keyframe);
       if (it == image_of_keyframe.end()) continue;
-      const cv::Point2f& pt = keyframes[static_cast<size_t>(o.keyframe)]
-                                  .features.keypoints[static_cast<size_t>(o.keypoint)]
-                                  .pt;
-      cp.track.push_back({it->second, Eigen::Vector2d(pt.x, pt.y)});
+      const Eigen::Vector2f& pt = keyframes[static_cast<size_t>(o.keyframe)]
+                                      .keypoint_pixels[static_cast<size_t>(o.keypoint)];
+      cp.track.push_back({it->second, pt.cast<double>()});
     }
     colmap.points.push_back(std::move(cp));
   }

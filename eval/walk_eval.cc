@@ -233,9 +233,9 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       for (size_t i = 0; i < keyframe.point_of_keypoint.size(); ++i) {
         const int point = keyframe.point_of_keypoint[i];
         if (point < 0 || !map->points()[static_cast<size_t>(point)].valid) continue;
-        const cv::Point2f& pixel = keyframe.features.keypoints[i].pt;
-        const int u = static_cast<int>(std::lround(pixel.x));
-        const int v = static_cast<int>(std::lround(pixel.y));
+        const Eigen::Vector2f& pixel = keyframe.keypoint_pixels[i];
+        const int u = static_cast<int>(std::lround(pixel.x()));
+        const int v = static_cast<int>(std::lround(pixel.y()));
         if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows) continue;
         const double truth_m = depth.at<uint16_t>(v, u) / 5000.0;
         if (truth_m <= 0) continue;

@@ -45,10 +45,9 @@ std::string WalkOptions::Check() const {
 WalkMap::WalkMap(const Eigen::Matrix3d& K, const WalkOptions& options) : K_(K), options_(options) {}
 
 Eigen::Vector2d WalkMap::Pixel(int keyframe, int keypoint) const {
-  const cv::Point2f& p = keyframes_[static_cast<size_t>(keyframe)]
-                             .features.keypoints[static_cast<size_t>(keypoint)]
-                             .pt;
-  return {p.x, p.y};
+  return keyframes_[static_cast<size_t>(keyframe)]
+      .keypoint_pixels[static_cast<size_t>(keypoint)]
+      .cast<double>();
 }
 
 std::vector<int> WalkMap::SegmentKeyframes() const {
@@ -77,6 +76,10 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   keyframe.features = ExtractSift(gray, options_.sift);
   summary.sift_s = SecondsSince(start);
   keyframe.point_of_keypoint.assign(keyframe.features.keypoints.size(), -1);
+  keyframe.keypoint_pixels.reserve(keyframe.features.keypoints.size());
+  for (const cv::KeyPoint& kp : keyframe.features.keypoints) {
+    keyframe.keypoint_pixels.emplace_back(kp.pt.x, kp.pt.y);
+  }
   keyframe.segment = segment_;
   keyframes_.push_back(std::move(keyframe));
   const int index = summary.index;
@@ -107,9 +110,9 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   summary.segment = keyframes_.back().segment;
   // Descriptors are read only for the newest keyframes (matching) and the window (the
   // search by projection compares with a point's newest observation, inside the window):
-  // older ones are released, which bounds a long walk's memory (keypoints stay for the BA).
+  // older ones are released, which bounds a long walk's memory (their pixels stay for the BA).
   const int keep = std::max(options_.window, options_.match_keyframes) + 1;
-  if (index >= keep) keyframes_[static_cast<size_t>(index - keep)].features.descriptors.release();
+  if (index >= keep) keyframes_[static_cast<size_t>(index - keep)].features = Features{};
   summary.time_s = SecondsSince(start);
   summary.pose_s = summary.time_s - summary.sift_s - summary.matching_s - summary.bundle_s;
   return summary;

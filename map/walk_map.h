@@ -78,9 +78,12 @@ struct WalkKeyframe {
   int segment = 0;
   bool registered = false;
   Eigen::Isometry3d cam_from_segment = Eigen::Isometry3d::Identity();
-  /// Keypoints in the full-size image. The descriptors are released once the keyframe is
-  /// older than the window and the matched keyframes (they are not read again).
+  /// SIFT keypoints and descriptors, released (empty) once the keyframe is older than the
+  /// window and the matched keyframes: they are not read again.
   Features features;
+  /// Each keypoint's pixel (full-size image), kept for the keyframe's life (bundle adjustment,
+  /// the entry's observations): 8 bytes a keypoint instead of the keypoint and descriptor's 540.
+  std::vector<Eigen::Vector2f> keypoint_pixels;
   std::vector<int> point_of_keypoint;  ///< Map point per keypoint, -1 when none.
 };
 

@@ -25,6 +25,8 @@ std::string SiftOptions::Check() const {
   return {};
 }
 
+void ReleaseSiftWorkspace() { sift::ReleaseWorkspace(); }
+
 Features ExtractSift(const cv::Mat& gray, const SiftOptions& options) {
   CV_Assert(gray.type() == CV_8UC1);
   if (options.impl == SiftImpl::kOwn) return sift::ExtractSiftOwn(gray, options);

@@ -50,4 +50,8 @@ struct Features {
 /// SIFT on an 8-bit gray image (options.impl chooses the implementation).
 Features ExtractSift(const cv::Mat& gray, const SiftOptions& options);
 
+/// Frees the calling thread's SIFT workspace (the own SIFT keeps its pyramid, tens of MB at
+/// 640x480, between calls); the next ExtractSift on the thread allocates it again.
+void ReleaseSiftWorkspace();
+
 }  // namespace mm

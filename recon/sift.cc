@@ -271,6 +271,16 @@ void Describe(const Plane& mag, const Plane& ori, const OctaveKeypoint& kp,
 
 }  // namespace
 
+namespace {
+// The pyramid's planes, kept per thread between calls (fresh pages cost more than a blur).
+Workspace& ThreadWorkspace() {
+  thread_local Workspace ws;
+  return ws;
+}
+}  // namespace
+
+void ReleaseWorkspace() { ThreadWorkspace() = Workspace{}; }
+
 Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
   CV_Assert(input.type() == CV_8UC1);
   const int layers = options.octave_layers;
@@ -283,7 +293,7 @@ Features ExtractSiftOwn(const cv::Mat& input, const SiftOptions& options) {
   }
   // First octave (Lowe 2004 Sec. 3.3): -1 doubles the image (assumed blur 2 x 0.5), k >= 1
   // averages 2^k x 2^k blocks. The base is then blurred to sigma.
-  thread_local Workspace ws;
+  Workspace& ws = ThreadWorkspace();
   float init_sigma = kInitSigma;
   if (first < 0) {
     ToPlane(gray, 2, &ws.input);

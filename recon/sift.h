@@ -88,5 +88,7 @@ void CollectDescriptorSamplesScalar(const Plane& mag, const Plane& ori, const De
 
 /// The whole detector and descriptor (called by ExtractSift for SiftImpl::kOwn).
 Features ExtractSiftOwn(const cv::Mat& gray, const SiftOptions& options);
+/// Frees the calling thread's workspace (ReleaseSiftWorkspace in recon/features.h).
+void ReleaseWorkspace();
 
 }  // namespace mm::sift

@@ -301,7 +301,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
       &c.walk.dense_mesh);
   r.GetNumber(walk, "walk", "max_mesh_parts", {1, 10000}, &c.walk.max_mesh_parts);
   if (const std::string problem = c.walk.gate.Check(); !problem.empty()) {
-    r.Require(false, walk, "walk", "parallax_deg", problem);
+    r.Require(false, walk, "walk", "parallax_deg", problem.substr(problem.find(':') + 2));
   }
 
   const auto* scale = r.Table("scale");

@@ -8,6 +8,7 @@
 #include "app/frame_info.h"
 #include "entry/walk_entry.h"
 #include "map/walk_mesh.h"
+#include "recon/features.h"
 #include "recon/pipeline.h"
 
 namespace mm {
@@ -201,6 +202,9 @@ WalkOutcome WalkThread::Finish() {
   const WalkMap& map = tracker_->map();
   out.keyframes = static_cast<int>(map.keyframes().size());
   out.segments = map.segments();
+  // The walk's SIFT is done: its pyramid workspace goes before the mesh and the preview
+  // allocate theirs (the peak of a long walk).
+  ReleaseSiftWorkspace();
   try {
     const int segment = LargestSegment(map);
     WalkMeshOptions mesh_options;

@@ -1,0 +1,186 @@
+// monomeshd in walk mode (docs/walk.md): the synthetic L-shaped corridor replayed in real time,
+// `ctl walk start`, one walk entry when the camera ends, checked against the exact ground truth
+// by `monomesh eval --spool`; an operator's stop; kill -9 during a walk; the daemon's peak RSS
+// over a walk of 300 keyframes.
+#include <Eigen/Geometry>
+#include <fstream>
+
+#include "entry/mesh_gltf.h"
+#include "entry/walk_entry.h"
+#include "tests/integration/daemon_process.h"
+#include "tests/support/run_command.h"
+
+namespace mm::test {
+namespace {
+
+// `monomesh synth` (the corridor round its corner, 300 frames at 30 Hz, 640x480 pinhole).
+fs::path Synthesize(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("mm_walk_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  int status = 0;
+  const std::string out =
+      RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +
+                     " --frames 300 --fps 30 --seed 2 --path walk",
+                 &status);
+  EXPECT_EQ(status, 0) << out;
+  return dir / "seq";
+}
+
+// The walk's last result once walk `id` has ended (null on timeout).
+json WaitForWalk(DaemonProcess& daemon, uint64_t id, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const json last = daemon.Status()["walk"]["last_result"];
+    if (last.is_object() && last["walk"].get<uint64_t>() == id) return last;
+    std::this_thread::sleep_for(100ms);
+  }
+  ADD_FAILURE() << "walk " << id << " did not end; log:\n" << daemon.log();
+  return json();
+}
+
+void WaitForKeyframes(DaemonProcess& daemon, int keyframes, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (daemon.Status()["walk"]["keyframes"].get<int>() >= keyframes) return;
+    std::this_thread::sleep_for(50ms);
+  }
+  ADD_FAILURE() << "fewer than " << keyframes << " keyframes; log:\n" << daemon.log();
+}
+
+// Peak resident set of a process (VmHWM, kB).
+long PeakRssKb(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return -1;
+}
+
+WalkReport ReadWalk(const fs::path& entry) {
+  WalkReport report;
+  EXPECT_EQ(ReadWalkReport(entry, &report), "") << entry;
+  return report;
+}
+
+TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
+  ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
+  const fs::path seq = Synthesize("corridor");
+  DaemonProcess daemon("walk", "rate=realtime&loop=0", "", seq, "", seq / "calib.toml");
+  daemon.Start();
+  const json started = daemon.Command("walk start");
+  ASSERT_TRUE(started.value("ok", false)) << started.dump();
+  // A capture is refused while walking, naming the state.
+  const json trigger = daemon.Command("trigger");
+  EXPECT_FALSE(trigger.value("ok", true));
+  EXPECT_EQ(trigger.value("error", ""), "busy: walking");
+  const json last = WaitForWalk(daemon, started["walk"].get<uint64_t>(), 180s);
+  ASSERT_TRUE(last.value("ok", false)) << last.dump() << "\n" << daemon.log();
+  EXPECT_EQ(last["reason"], "camera ended");
+  EXPECT_EQ(last["segments"], 1) << daemon.log();
+  const fs::path entry = last["entry"].get<std::string>();
+  const WalkReport report = ReadWalk(entry);
+  EXPECT_TRUE(report.success) << report.failure_reason;
+  EXPECT_GE(report.counts.keyframes, 10);
+  EXPECT_EQ(report.counts.registered, report.counts.keyframes);
+  for (const char* f :
+       {"map.glb", "map.ply", "trajectory.txt", "points.ply", "cameras.txt", "images.txt",
+        "points3D.txt", "calibration.toml", "preview.png", "report.json"}) {
+    EXPECT_TRUE(fs::exists(entry / f)) << entry << " lacks " << f;
+  }
+  for (const WalkReport::Keyframe& k : report.keyframes) {
+    EXPECT_TRUE(fs::exists(entry / k.image)) << k.image;
+  }
+  // trajectory.txt: one TUM line per registered keyframe of the map segment.
+  std::ifstream trajectory(entry / "trajectory.txt");
+  int poses = 0;
+  for (std::string line; std::getline(trajectory, line);) poses += !line.empty() && line[0] != '#';
+  EXPECT_EQ(poses, report.counts.registered);
+  // The map mesh: parts textured by their keyframes, a surface of thousands of triangles.
+  Mesh map;
+  cv::Mat texture;
+  EXPECT_EQ(DecodeGlb(ReadAll(entry / "map.glb"), &map, &texture), "");
+  EXPECT_FALSE(texture.empty());
+  EXPECT_GE(report.counts.mesh_triangles, 2000);
+  EXPECT_GE(report.counts.mesh_parts, 3);
+  std::cout << "walk: " << report.counts.keyframes << " keyframes, " << report.frames
+            << " frames, mesh " << report.counts.mesh_parts << " parts ("
+            << report.counts.mesh_dense_parts << " dense), " << report.counts.mesh_triangles
+            << " triangles; registration median " << report.timings_s.registration_median
+            << " s; peak RSS " << PeakRssKb(daemon.pid()) / 1024 << " MB\n";
+
+  // The trajectory against the exact ground truth, through the CLI.
+  int status = 0;
+  const fs::path out = daemon.dir() / "eval.json";
+  const std::string text = RunCommand(Monomesh() + " eval --dataset " + seq.string() + " --spool " +
+                                          daemon.spool().string() + " --json " + out.string(),
+                                      &status);
+  ASSERT_EQ(status, 0) << text;
+  std::cout << text;
+  const json eval = json::parse(ReadAll(out));
+  EXPECT_EQ(eval["summary"]["walks_evaluated"], 1);
+  // The target for the walk: ATE RMSE <= 0.5 % of the path (measured 0.02-0.03 %).
+  EXPECT_LE(eval["summary"]["walk_ate_rel_max"].get<double>(), 0.005);
+  EXPECT_GE(eval["entries"][0]["walk"]["path_length_m"].get<double>(), 5.0);
+}
+
+TEST(DaemonWalk, OperatorStopWritesTheWalkAndKillNineLeavesNoPartialEntry) {
+  ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
+  const fs::path seq = Synthesize("stop");
+  DaemonProcess daemon("walkstop", "rate=realtime&loop=1", "", seq, "", seq / "calib.toml");
+  daemon.Start();
+  EXPECT_FALSE(daemon.Command("walk stop").value("ok", true));  // Not walking.
+  const json first = daemon.Command("walk start");
+  ASSERT_TRUE(first.value("ok", false)) << first.dump();
+  WaitForKeyframes(daemon, 4, 60s);
+  const json stop = daemon.Command("walk stop");
+  EXPECT_TRUE(stop.value("ok", false)) << stop.dump();
+  const json last = WaitForWalk(daemon, first["walk"].get<uint64_t>(), 120s);
+  ASSERT_TRUE(last.value("ok", false)) << last.dump();
+  EXPECT_EQ(last["reason"], "operator");
+  const fs::path entry = last["entry"].get<std::string>();
+  EXPECT_EQ(ReadWalk(entry).stop_reason, "operator");
+  EXPECT_EQ(daemon.Status()["state"], "idle");
+
+  // kill -9 during the next walk: nothing of it becomes visible, the first entry stays whole.
+  const json second = daemon.Command("walk start");
+  ASSERT_TRUE(second.value("ok", false)) << second.dump();
+  WaitForKeyframes(daemon, 3, 60s);
+  daemon.Kill(SIGKILL);
+  EXPECT_EQ(VisibleEntries(daemon.spool()).size(), 1u);
+  daemon.Start();  // Recovers the spool.
+  const std::vector<fs::path> entries = VisibleEntries(daemon.spool());
+  ASSERT_EQ(entries.size(), 1u);
+  EXPECT_EQ(entries[0].filename(), entry.filename());
+  EXPECT_TRUE(ReadWalk(entries[0]).success);
+  for (const auto& item : fs::directory_iterator(daemon.spool())) {
+    EXPECT_NE(item.path().filename().string().rfind(".tmp-", 0), 0u) << item.path();
+  }
+}
+
+// A long walk: a keyframe at the reconstruction's smallest parallax (1 deg), up to the limit of
+// 300 (the corridor replayed in a loop: the jump back to its start begins a new segment).
+TEST(DaemonWalk, ThreeHundredKeyframesKeepThePeakRssUnder400MB) {
+  ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
+  const fs::path seq = Synthesize("long");
+  DaemonProcess daemon("walklong", "rate=realtime&loop=1",
+                       "[walk]\nparallax_deg = 1.0\nmax_keyframes = 300\n", seq, "",
+                       seq / "calib.toml");
+  daemon.Start();
+  const json started = daemon.Command("walk start");
+  ASSERT_TRUE(started.value("ok", false)) << started.dump();
+  const json last = WaitForWalk(daemon, started["walk"].get<uint64_t>(), 420s);
+  ASSERT_TRUE(last.value("ok", false)) << last.dump();
+  EXPECT_EQ(last["reason"], "keyframe limit");
+  EXPECT_EQ(last["keyframes"], 300);
+  const long peak_kb = PeakRssKb(daemon.pid());
+  std::cout << "300 keyframes (" << last["segments"] << " segments): peak RSS " << peak_kb / 1024
+            << " MB\n";
+  EXPECT_GT(peak_kb, 0);
+  EXPECT_LE(peak_kb, 400 * 1024);
+}
+
+}  // namespace
+}  // namespace mm::test
