@@ -16,8 +16,10 @@
 #include "calib/undistort.h"
 #include "dataset/tum.h"
 #include "entry/json_text.h"
+#include "eval/mesh_checks.h"
 #include "eval/tum_pairs.h"
 #include "map/walk_tracker.h"
+#include "render/renderer.h"
 
 namespace mm {
 namespace {
@@ -50,6 +52,8 @@ std::string WalkEvalOptions::Check() const {
     if (std::string p = gate.Check(); !p.empty()) return "gate." + p;
   }
   if (!(max_gt_dt_s >= 0)) return "max_gt_dt_s: must be >= 0";
+  if (map_depth_views < 0) return "map_depth_views: must be >= 0";
+  if (std::string p = mesh.Check(); !p.empty()) return "mesh." + p;
   return {};
 }
 
@@ -89,6 +93,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   std::optional<WalkMap> every_frame_map;  // every_frame: each frame straight into the map.
   std::optional<WalkTracker> tracker;      // Else: the walk's keyframe policy.
   const WalkMap* map = nullptr;
+  Eigen::Matrix3d k_matrix = Eigen::Matrix3d::Identity();  // Of the undistorted frames.
   const double cpu_start = ThreadCpuSeconds();
 
   auto keyframe_eval = [&](size_t frame, const WalkKeyframeSummary& summary, double cpu_s) {
@@ -124,6 +129,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       image = undistorter->Apply(image);
     }
     const Eigen::Matrix3d k = undistorter ? undistorter->output_camera().K() : sized.K();
+    k_matrix = k;
     ++result.summary.frames;
     if (options.every_frame) {
       if (!every_frame_map) map = &every_frame_map.emplace(k, options.walk);
@@ -255,6 +261,64 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       s.point_depth_rel_err_median = MedianOf(depth_errors);
       s.point_depth_rel_err_p90 = QuantileOf(depth_errors, 0.9);
     }
+    if (options.map_depth_views > 0) {
+      // The map mesh, from the keyframes' own images, into the ground truth's frame.
+      const WalkMesh mesh = BuildWalkMesh(
+          *map, s.evaluated_segment, k_matrix,
+          [&](int index) {
+            cv::Mat image = cv::imread(
+                frames[static_cast<size_t>(result.keyframes[static_cast<size_t>(index)].frame)]
+                    .path.string(),
+                cv::IMREAD_COLOR);
+            if (undistorter && !image.empty()) image = undistorter->Apply(image);
+            return image;
+          },
+          options.mesh);
+      s.map_mesh_parts = mesh.summary.parts;
+      s.map_mesh_triangles = mesh.summary.triangles;
+      Mesh world = mesh.Merged();
+      const Eigen::Matrix3f sr = sim3.topLeftCorner<3, 3>().cast<float>();
+      const Eigen::Vector3f st = sim3.topRightCorner<3, 1>().cast<float>();
+      for (Eigen::Vector3f& v : world.vertices) v = sr * v + st;
+      std::vector<double> medians;
+      double coverage = 0.0;
+      Renderer renderer;
+      const int views = std::min<int>(options.map_depth_views, static_cast<int>(ids.size()));
+      for (int v = 0; v < views && renderer.ok() && !world.triangles.empty(); ++v) {
+        const size_t j =
+            views == 1 ? 0
+                       : static_cast<size_t>(v) * (ids.size() - 1) / static_cast<size_t>(views - 1);
+        const WalkKeyframeEval& k = result.keyframes[static_cast<size_t>(ids[j])];
+        const int d = NearestFrame(depth_frames, k.timestamp_s, options.max_depth_dt_s);
+        if (d < 0) continue;
+        cv::Mat depth =
+            cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
+        if (depth.type() != CV_16UC1 || depth.cols != sized.width || depth.rows != sized.height) {
+          continue;
+        }
+        if (undistorter) depth = undistorter->ApplyNearest(depth);
+        cv::Mat depth_m;
+        depth.convertTo(depth_m, CV_32F, 1.0 / 5000.0);
+        RenderCamera view;
+        view.K = k_matrix;
+        view.width = depth.cols;
+        view.height = depth.rows;
+        view.cam_from_world = world_from_cam_gt[static_cast<size_t>(ids[j])].inverse();
+        view.far_plane = FarPlaneFor(world, view.cam_from_world);
+        view.near_plane = view.far_plane * 1e-4;
+        const MeshDepthEval e = EvaluateMeshDepth(renderer, world, view, depth_m, 1.0);
+        if (!e.success || e.covered_pixels == 0) continue;
+        medians.push_back(e.median_rel_err);
+        s.map_depth_rel_err_p90_max = std::max(s.map_depth_rel_err_p90_max, e.p90_rel_err);
+        coverage += e.coverage;
+      }
+      if (!medians.empty()) {
+        s.map_depth_views = static_cast<int>(medians.size());
+        s.map_depth_rel_err_median = MedianOf(medians);
+        s.map_depth_rel_err_max_median = *std::max_element(medians.begin(), medians.end());
+        s.map_coverage_mean = coverage / static_cast<double>(medians.size());
+      }
+    }
     const size_t third = ids.size() / 3;
     const std::vector<int> first(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(third));
     const std::vector<int> last(ids.end() - static_cast<std::ptrdiff_t>(third), ids.end());
@@ -297,7 +361,17 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
       100.0 * s.scale_drift, 1e3 * s.cpu_per_keyframe_s_median, s.cpu_total_s, s.points,
       s.depth_keyframes, 100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90,
       s.depth_points);
-  return text;
+  std::string out = text;
+  if (s.map_depth_views > 0) {
+    std::snprintf(text, sizeof text,
+                  "  map mesh: %d parts, %d triangles; its depth from %d ground-truth poses: "
+                  "median %.2f %% (worst view %.2f %%, p90 up to %.2f %%), coverage %.0f %%\n",
+                  s.map_mesh_parts, s.map_mesh_triangles, s.map_depth_views,
+                  100.0 * s.map_depth_rel_err_median, 100.0 * s.map_depth_rel_err_max_median,
+                  100.0 * s.map_depth_rel_err_p90_max, 100.0 * s.map_coverage_mean);
+    out += text;
+  }
+  return out;
 }
 
 std::string WalkEvalToJson(const WalkEvalResult& result) {
@@ -322,7 +396,14 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                 {{"median", s.point_depth_rel_err_median},
                  {"p90", s.point_depth_rel_err_p90},
                  {"points", s.depth_points},
-                 {"keyframes", s.depth_keyframes}}}};
+                 {"keyframes", s.depth_keyframes}}},
+               {"map_depth_rel_err",
+                {{"median", s.map_depth_rel_err_median},
+                 {"max_median", s.map_depth_rel_err_max_median},
+                 {"p90_max", s.map_depth_rel_err_p90_max},
+                 {"views", s.map_depth_views},
+                 {"coverage_mean", s.map_coverage_mean}}},
+               {"map_mesh", {{"parts", s.map_mesh_parts}, {"triangles", s.map_mesh_triangles}}}};
   json keyframes = json::array();
   for (const WalkKeyframeEval& k : result.keyframes) {
     keyframes.push_back(

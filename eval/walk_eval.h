@@ -21,6 +21,7 @@
 
 #include "calib/camera_model.h"
 #include "map/walk_map.h"
+#include "map/walk_mesh.h"
 #include "recon/keyframe_gate.h"
 
 namespace mm {
@@ -33,6 +34,11 @@ struct WalkEvalOptions {
   double max_depth_dt_s = 0.02;  ///< A depth map belongs to a keyframe within this time.
   WalkOptions walk;
   KeyframeGateOptions gate;  ///< Without every_frame.
+  /// The map mesh (map/walk_mesh.h) of the evaluated segment, aligned by the Sim(3) and
+  /// rendered from the ground-truth poses of this many keyframes evenly along the path,
+  /// against their depth maps; 0: no mesh.
+  int map_depth_views = 5;
+  WalkMeshOptions mesh;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -75,6 +81,16 @@ struct WalkEvalSummary {
   int depth_keyframes = 0;
   double point_depth_rel_err_median = 0.0;
   double point_depth_rel_err_p90 = 0.0;
+  /// The map mesh from `map_depth_views` ground-truth poses: per view the median of
+  /// |d_mesh - d_gt| / d_gt over the pixels both cover; the median and the largest of those
+  /// medians, the largest p90, and the mean share of ground-truth pixels the mesh covers.
+  int map_depth_views = 0;
+  double map_depth_rel_err_median = 0.0;
+  double map_depth_rel_err_max_median = 0.0;
+  double map_depth_rel_err_p90_max = 0.0;
+  double map_coverage_mean = 0.0;
+  int map_mesh_parts = 0;
+  int map_mesh_triangles = 0;
 };
 
 struct WalkEvalResult {
