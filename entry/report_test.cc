@@ -108,6 +108,42 @@ TEST(EntryReport, RoundTripsThroughJson) {
 
 // A frame file name that is not UTF-8 (any byte string is a valid Linux name) made dump()
 // throw, so every capture's report failed: it is written with U+FFFD and reads back.
+TEST(WalkReport, RoundTripsAndEachReaderRefusesTheOtherKind) {
+  WalkReport w;
+  w.success = true;
+  w.stop_reason = "operator";
+  w.frames = 223;
+  w.map_segment = 0;
+  w.camera.width = 640;
+  w.camera.height = 480;
+  WalkReport::Keyframe k;
+  k.index = 3;
+  k.info.sequence = 77;
+  k.info.source_time_s = 1002.5;
+  k.image = "keyframe_0003.jpg";
+  k.registered = true;
+  k.pnp_inliers = 412;
+  k.quaternion_wxyz = Eigen::Vector4d(0.9, 0.1, -0.2, 0.3).normalized();
+  k.translation = Eigen::Vector3d(0.25, -0.5, 2.0);
+  w.keyframes = {k};
+  w.segments = {{.segment = 0, .keyframes = 1, .registered = 1, .first_keyframe = 3}};
+  w.counts.keyframes = 1;
+  w.counts.mesh_triangles = 8794;
+  w.timings_s.registration_median = 0.141;
+  const json j = ToJson(w);
+  EXPECT_EQ(ReportKind(j), "walk");
+  WalkReport back;
+  ASSERT_EQ(FromJson(j, &back), "");
+  EXPECT_EQ(FormatWalkReport(back), FormatWalkReport(w));
+  EXPECT_EQ(back.keyframes.at(0).info.sequence, 77u);
+  EXPECT_NEAR((back.keyframes.at(0).translation - k.translation).norm(), 0.0, 1e-12);
+  // A pair's reader refuses a walk's report by name, and the walk's reader a pair's.
+  EntryReport pair;
+  EXPECT_NE(FromJson(j, &pair).find("walk"), std::string::npos);
+  EXPECT_NE(FromJson(ToJson(Filled()), &back), "");
+  EXPECT_EQ(ReportKind(ToJson(Filled())), "pair");
+}
+
 TEST(EntryReport, NonUtf8FrameNameIsWrittenAsValidJson) {
   EntryReport r = Filled();
   r.keyframe_a.source = "rgb/\xff\xfe-a.png";
@@ -143,8 +179,8 @@ TEST(EntryReport, ScaleSaysTheUnitsAndTheSource) {
   scale.metres_per_unit = 0.3;
   scale.odometry_metres_per_unit = 0.3;
   scale.uncertainty_rel = 0.047;
-  const EntryReport r = MakeEntryReport(recon, {}, {}, BouguetCamera{}, PairOptions{}, false, {},
-                                        scale);
+  const EntryReport r =
+      MakeEntryReport(recon, {}, {}, BouguetCamera{}, PairOptions{}, false, {}, scale);
   const json j = ToJson(r);
   EXPECT_EQ(j["scale"]["units"], "metres");
   EXPECT_EQ(j["scale"]["source"], "odometry");
