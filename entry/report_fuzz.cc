@@ -1,6 +1,6 @@
 // libFuzzer target for the report.json readers, a pair's and a walk's (`monomesh eval --spool`
-// reads every entry's; the fuzz preset, scripts/fuzz.sh). Any bytes are refused or read; what is read is written
-// (never throwing, whatever its strings hold) and reads back to the same text.
+// reads every entry's; the fuzz preset, scripts/fuzz.sh). Any bytes are refused or read; what is
+// read is written (never throwing, whatever its strings hold) and reads back to the same text.
 
 #include <cstdint>
 #include <cstdlib>
