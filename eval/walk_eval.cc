@@ -222,18 +222,23 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       s.ate_max_m = std::max(s.ate_max_m, err);
     }
     s.ate_rmse_m = std::sqrt(sum / static_cast<double>(ids.size()));
-    std::vector<double> depth_errors;
-    for (int id : ids) {
-      WalkKeyframeEval& k = result.keyframes[static_cast<size_t>(id)];
-      const int d = NearestFrame(depth_frames, k.timestamp_s, options.max_depth_dt_s);
-      if (d < 0) continue;
+    // The depth map of a keyframe (16-bit, the calibration's size), through the undistorted
+    // camera as the keyframes went (nearest, unblended); empty when there is none.
+    const auto depth_at = [&](double timestamp_s) {
+      const int d = NearestFrame(depth_frames, timestamp_s, options.max_depth_dt_s);
+      if (d < 0) return cv::Mat();
       cv::Mat depth =
           cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
       if (depth.type() != CV_16UC1 || depth.cols != sized.width || depth.rows != sized.height) {
-        continue;
+        return cv::Mat();
       }
-      // The keyframes went through the undistorted camera: the depth map too, unblended.
-      if (undistorter) depth = undistorter->ApplyNearest(depth);
+      return undistorter ? undistorter->ApplyNearest(depth) : depth;
+    };
+    std::vector<double> depth_errors;
+    for (int id : ids) {
+      WalkKeyframeEval& k = result.keyframes[static_cast<size_t>(id)];
+      const cv::Mat depth = depth_at(k.timestamp_s);
+      if (depth.empty()) continue;
       const WalkKeyframe& keyframe = map->keyframes()[static_cast<size_t>(id)];
       std::vector<double> errors;
       for (size_t i = 0; i < keyframe.point_of_keypoint.size(); ++i) {
@@ -289,14 +294,8 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
             views == 1 ? 0
                        : static_cast<size_t>(v) * (ids.size() - 1) / static_cast<size_t>(views - 1);
         const WalkKeyframeEval& k = result.keyframes[static_cast<size_t>(ids[j])];
-        const int d = NearestFrame(depth_frames, k.timestamp_s, options.max_depth_dt_s);
-        if (d < 0) continue;
-        cv::Mat depth =
-            cv::imread(depth_frames[static_cast<size_t>(d)].path.string(), cv::IMREAD_UNCHANGED);
-        if (depth.type() != CV_16UC1 || depth.cols != sized.width || depth.rows != sized.height) {
-          continue;
-        }
-        if (undistorter) depth = undistorter->ApplyNearest(depth);
+        const cv::Mat depth = depth_at(k.timestamp_s);
+        if (depth.empty()) continue;
         cv::Mat depth_m;
         depth.convertTo(depth_m, CV_32F, 1.0 / 5000.0);
         RenderCamera view;
