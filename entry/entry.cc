@@ -96,19 +96,24 @@ SpoolCommit WriteEntry(Spool& spool, const EncodedEntry& entry, std::time_t when
   return spool.Commit(entry.files, when);
 }
 
-std::string ReadEntryReport(const std::filesystem::path& entry_dir, EntryReport* report) {
+std::string ReadReportJson(const std::filesystem::path& entry_dir, nlohmann::json* report) {
   const std::filesystem::path file = entry_dir / "report.json";
   std::string error;
   const std::optional<std::string> text = ReadTextFile(file, kMaxDataFileBytes, &error);
   if (!text) return error;
-  nlohmann::json j;
   try {
-    j = nlohmann::json::parse(*text);
+    *report = nlohmann::json::parse(*text);
   } catch (const nlohmann::json::exception& e) {
     return file.string() + ": " + e.what();
   }
+  return {};
+}
+
+std::string ReadEntryReport(const std::filesystem::path& entry_dir, EntryReport* report) {
+  nlohmann::json j;
+  if (std::string error = ReadReportJson(entry_dir, &j); !error.empty()) return error;
   if (std::string problem = FromJson(j, report); !problem.empty()) {
-    return file.string() + ": " + problem;
+    return (entry_dir / "report.json").string() + ": " + problem;
   }
   return {};
 }

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <ctime>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -37,7 +38,13 @@ EncodedEntry EncodeEntry(const PairReconstruction& recon, const cv::Mat& image_a
 /// Commits the entry to the spool as `<spool>/<UTC of when>-<seq>/`.
 [[nodiscard]] SpoolCommit WriteEntry(Spool& spool, const EncodedEntry& entry, std::time_t when);
 
-/// Reads `<entry_dir>/report.json`. Returns "" or what went wrong (naming the file).
+/// Reads `<entry_dir>/report.json` as JSON, of either kind (ReportKind tells which). Returns ""
+/// or what went wrong (naming the file).
+[[nodiscard]] std::string ReadReportJson(const std::filesystem::path& entry_dir,
+                                         nlohmann::json* report);
+
+/// Reads `<entry_dir>/report.json` as a pair's report. Returns "" or what went wrong (naming the
+/// file).
 [[nodiscard]] std::string ReadEntryReport(const std::filesystem::path& entry_dir,
                                           EntryReport* report);
 

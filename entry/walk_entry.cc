@@ -286,30 +286,16 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
 }
 
 std::string ReadEntryKind(const std::filesystem::path& entry_dir, std::string* error) {
-  const std::filesystem::path file = entry_dir / "report.json";
-  const std::optional<std::string> text = ReadTextFile(file, kMaxDataFileBytes, error);
-  if (!text) return {};
-  try {
-    return ReportKind(nlohmann::json::parse(*text));
-  } catch (const nlohmann::json::exception& e) {
-    *error = file.string() + ": " + e.what();
-    return {};
-  }
+  nlohmann::json j;
+  *error = ReadReportJson(entry_dir, &j);
+  return error->empty() ? ReportKind(j) : std::string();
 }
 
 std::string ReadWalkReport(const std::filesystem::path& entry_dir, WalkReport* report) {
-  const std::filesystem::path file = entry_dir / "report.json";
-  std::string error;
-  const std::optional<std::string> text = ReadTextFile(file, kMaxDataFileBytes, &error);
-  if (!text) return error;
   nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(*text);
-  } catch (const nlohmann::json::exception& e) {
-    return file.string() + ": " + e.what();
-  }
+  if (std::string error = ReadReportJson(entry_dir, &j); !error.empty()) return error;
   if (std::string problem = FromJson(j, report); !problem.empty()) {
-    return file.string() + ": " + problem;
+    return (entry_dir / "report.json").string() + ": " + problem;
   }
   return {};
 }
