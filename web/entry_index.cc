@@ -34,27 +34,68 @@ std::vector<std::string> EntryFiles(const fs::path& entry_dir) {
 
 }  // namespace
 
+namespace {
+
+void PairSummary(const EntryReport& report, json* summary) {
+  json& s = *summary;
+  s["success"] = report.success;
+  s["failure_reason"] = report.failure_reason;
+  const int64_t realtime_ns = report.keyframe_a.capture_realtime_ns;
+  s["time_unix_s"] = realtime_ns > 0 ? json(static_cast<double>(realtime_ns) * 1e-9) : json();
+  s["pair"] = report.pair_classification.kind;
+  s["mesh_mode"] = report.meshing.mode;
+  s["vertices"] = report.counts.mesh_vertices;
+  s["triangles"] = report.counts.mesh_triangles;
+  s["points"] = report.counts.points;
+  s["inliers"] = report.counts.inliers;
+  s["median_triangulation_angle_deg"] = report.quality.median_triangulation_angle_deg;
+  s["reprojection_rms_px"] = report.quality.reprojection_rms_px;
+  s["units"] = report.scale.units;
+}
+
+void WalkSummary(const WalkReport& report, json* summary) {
+  json& s = *summary;
+  s["success"] = report.success;
+  s["failure_reason"] = report.failure_reason;
+  const int64_t realtime_ns =
+      report.keyframes.empty() ? 0 : report.keyframes.front().info.capture_realtime_ns;
+  s["time_unix_s"] = realtime_ns > 0 ? json(static_cast<double>(realtime_ns) * 1e-9) : json();
+  s["stop_reason"] = report.stop_reason;
+  s["keyframes"] = report.counts.keyframes;
+  s["registered"] = report.counts.registered;
+  s["segments"] = report.counts.segments;
+  s["vertices"] = report.counts.mesh_vertices;
+  s["triangles"] = report.counts.mesh_triangles;
+  s["points"] = report.counts.points;
+  s["walk_seconds"] = report.timings_s.walk;
+  s["units"] = report.scale.units;
+}
+
+}  // namespace
+
 json EntrySummary(const fs::path& entry_dir) {
   json summary{{"name", entry_dir.filename().string()}, {"files", EntryFiles(entry_dir)}};
-  EntryReport report;
-  if (std::string error = ReadEntryReport(entry_dir, &report); !error.empty()) {
+  // report.json is parsed once and read as the kind it says it is.
+  json report_json;
+  std::string error = ReadReportJson(entry_dir, &report_json);
+  summary["kind"] = error.empty() ? ReportKind(report_json) : "pair";
+  if (error.empty()) {
+    std::string problem;
+    if (summary["kind"] == "walk") {
+      WalkReport report;
+      problem = FromJson(report_json, &report);
+      if (problem.empty()) WalkSummary(report, &summary);
+    } else {
+      EntryReport report;
+      problem = FromJson(report_json, &report);
+      if (problem.empty()) PairSummary(report, &summary);
+    }
+    if (!problem.empty()) error = (entry_dir / "report.json").string() + ": " + problem;
+  }
+  if (!error.empty()) {
     summary["success"] = false;
     summary["report_error"] = error;
-    return summary;
   }
-  summary["success"] = report.success;
-  summary["failure_reason"] = report.failure_reason;
-  const int64_t realtime_ns = report.keyframe_a.capture_realtime_ns;
-  summary["time_unix_s"] = realtime_ns > 0 ? json(static_cast<double>(realtime_ns) * 1e-9) : json();
-  summary["pair"] = report.pair_classification.kind;
-  summary["mesh_mode"] = report.meshing.mode;
-  summary["vertices"] = report.counts.mesh_vertices;
-  summary["triangles"] = report.counts.mesh_triangles;
-  summary["points"] = report.counts.points;
-  summary["inliers"] = report.counts.inliers;
-  summary["median_triangulation_angle_deg"] = report.quality.median_triangulation_angle_deg;
-  summary["reprojection_rms_px"] = report.quality.reprojection_rms_px;
-  summary["units"] = report.scale.units;
   return summary;
 }
 

@@ -14,9 +14,11 @@
 
 namespace mm {
 
-/// One entry's summary from its report.json: name, success, failure_reason, time_unix_s, pair,
-/// mesh_mode, vertices, triangles, points, inliers, median_triangulation_angle_deg,
-/// reprojection_rms_px, units, files; report_error when the report cannot be read.
+/// One entry's summary from its report.json (docs/web.md): name, kind ("pair" or "walk"), files,
+/// success, failure_reason, time_unix_s, vertices, triangles, points, units; a pair's pair,
+/// mesh_mode, inliers, median_triangulation_angle_deg, reprojection_rms_px; a walk's
+/// stop_reason, keyframes, registered, segments, walk_seconds; report_error when the report
+/// cannot be read.
 nlohmann::json EntrySummary(const std::filesystem::path& entry_dir);
 
 /// Every entry of the spool folder, newest first, as {"entries": [summary, ...]}.

@@ -30,6 +30,7 @@ class NoDaemon : public mm::DaemonLink {
  public:
   std::string Request(const std::string& command) override {
     if (command == "trigger") return R"({"ok":true,"capture":1})";
+    if (command.rfind("walk ", 0) == 0) return R"({"ok":true,"walk":1})";
     return R"({"ok":true,"state":"idle"})";
   }
   void Watch(const std::function<void(const std::string&)>&,

@@ -209,14 +209,26 @@ void WebServer::Routes() {
     attachment(file->filename().string());
     SendFile(res, std::move(fd), static_cast<size_t>(st.st_size), ContentTypeOf(name));
   });
-  s.Post("/api/trigger", [this](const httplib::Request& req, httplib::Response& res) {
-    if (!BearerTokenMatches(req.get_header_value("Authorization"), options_.token)) {
-      res.set_header("WWW-Authenticate", "Bearer");
-      return SendError(res, 401, "a POST needs the token: Authorization: Bearer TOKEN");
-    }
+  // Every POST changes state: the token first, then the daemon's own answer.
+  const auto authorised = [this](const httplib::Request& req, httplib::Response& res) {
+    if (BearerTokenMatches(req.get_header_value("Authorization"), options_.token)) return true;
+    res.set_header("WWW-Authenticate", "Bearer");
+    SendError(res, 401, "a POST needs the token: Authorization: Bearer TOKEN");
+    return false;
+  };
+  s.Post("/api/trigger", [this, authorised](const httplib::Request& req, httplib::Response& res) {
+    if (!authorised(req, res)) return;
     spdlog::info("web: capture pressed by {}", req.remote_addr);
     SendDaemonReply(res, link_, "trigger");
   });
+  // The action is one of the two the pattern admits; nothing else of the path is used.
+  s.Post(R"(/api/walk/(start|stop))",
+         [this, authorised](const httplib::Request& req, httplib::Response& res) {
+           if (!authorised(req, res)) return;
+           const std::string command = "walk " + req.matches[1].str();
+           spdlog::info("web: {} pressed by {}", command, req.remote_addr);
+           SendDaemonReply(res, link_, command);
+         });
   s.Get("/api/events", [this](const httplib::Request&, httplib::Response& res) {
     std::shared_ptr<EventHub::Client> client = hub_.Subscribe();
     if (!client) {

@@ -1,7 +1,8 @@
 #pragma once
 // WebServer: monomesh-web's HTTP side (cpp-httplib): the page files, three.js under /three/,
 // and the JSON API of docs/web.md over the spool (read only) and the daemon (DaemonLink).
-// GET never changes state; POST /api/trigger needs the bearer token. Requests are bounded:
+// GET never changes state; a POST (/api/trigger, /api/walk/start, /api/walk/stop) needs the
+// bearer token. Requests are bounded:
 // body size, header count, URI length (httplib's 8 KiB), a deadline for each request to
 // arrive whole (BoundedServer), read, write and keep-alive timeouts, the number of worker
 // threads and of event-stream clients.

@@ -39,6 +39,8 @@ class FakeDaemon : public DaemonLink {
     requests_.push_back(command);
     if (!up_) throw DaemonUnreachable("control socket /x: connect: No such file or directory");
     if (command == "trigger") return R"({"ok":true,"capture":7})";
+    if (command == "walk start") return R"({"ok":true,"walk":3})";
+    if (command == "walk stop") return R"({"ok":true,"walk":3,"keyframes":12})";
     return R"({"ok":true,"state":"idle"})";
   }
   void Watch(const std::function<void(const std::string&)>& on_line,
@@ -122,6 +124,28 @@ std::string RawRequest(int port, const std::string& request) {
 
 int StatusOf(const std::string& reply) {
   return reply.size() > 12 ? std::atoi(reply.c_str() + 9) : 0;
+}
+
+// A walk's entry folder (docs/walk.md) with its report and map.
+fs::path MakeWalkEntry(const fs::path& spool, const std::string& name) {
+  const fs::path dir = spool / name;
+  fs::create_directories(dir);
+  WalkReport report;
+  report.success = true;
+  report.stop_reason = "operator";
+  report.counts.keyframes = 12;
+  report.counts.registered = 11;
+  report.counts.segments = 2;
+  report.counts.points = 3456;
+  report.counts.mesh_vertices = 4567;
+  report.timings_s.walk = 42.5;
+  WalkReport::Keyframe first;
+  first.info.capture_realtime_ns = 1'800'000'000'000'000'000;
+  report.keyframes.push_back(first);
+  WriteFile(dir / "report.json", nlohmann::json(ToJson(report)).dump(2));
+  WriteFile(dir / "map.glb", std::string("glTF\x02\0\0\0", 8) + std::string(100, 'g'));
+  WriteFile(dir / "trajectory.txt", "0 0 0 0 0 0 0 1\n");
+  return dir;
 }
 
 class WebServerTest : public ::testing::Test {
@@ -270,6 +294,66 @@ TEST_F(WebServerTest, TriggerIsAPostWithTheToken) {
   EXPECT_EQ(res->status, 200);
   EXPECT_EQ(json::parse(res->body)["capture"], 7);
   EXPECT_EQ(daemon_.requests(), std::vector<std::string>{"trigger"});
+}
+
+TEST_F(WebServerTest, WalkStartAndStopArePostsWithTheToken) {
+  for (const char* path : {"/api/walk/start", "/api/walk/stop"}) {
+    auto res = client_->Post(path);
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 401) << path;
+    res = client_->Post(path, {{"Authorization", "Bearer wrong-token!"}}, "", "text/plain");
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 401) << path;
+    res = client_->Get(path);  // GET never changes state.
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 404) << path;
+  }
+  // Only the two actions: nothing else of the path reaches the daemon.
+  for (const char* path : {"/api/walk/pause", "/api/walk/start%0Atrigger", "/api/walk/start/x",
+                           "/api/walk/", "/api/walk"}) {
+    const auto res =
+        client_->Post(path, {{"Authorization", "Bearer s3cret-token"}}, "", "text/plain");
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 404) << path;
+  }
+  EXPECT_TRUE(daemon_.requests().empty());
+  const httplib::Headers token = {{"Authorization", "Bearer s3cret-token"}};
+  auto res = client_->Post("/api/walk/start", token, "", "text/plain");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
+  EXPECT_EQ(json::parse(res->body)["walk"], 3);
+  res = client_->Post("/api/walk/stop", token, "", "text/plain");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
+  EXPECT_EQ(json::parse(res->body)["keyframes"], 12);
+  EXPECT_EQ(daemon_.requests(), (std::vector<std::string>{"walk start", "walk stop"}));
+}
+
+TEST_F(WebServerTest, ListsAWalksEntryWithItsFigures) {
+  MakeWalkEntry(spool_, "20261202T101000Z-000003");
+  const auto res = client_->Get("/api/entries");
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200);
+  const json list = json::parse(res->body);
+  ASSERT_EQ(list["entries"].size(), 3u) << res->body;
+  const json& walk = list["entries"][0];
+  EXPECT_EQ(walk["name"], "20261202T101000Z-000003");
+  EXPECT_EQ(walk["kind"], "walk");
+  EXPECT_EQ(walk["success"], true);
+  EXPECT_EQ(walk["stop_reason"], "operator");
+  EXPECT_EQ(walk["keyframes"], 12);
+  EXPECT_EQ(walk["registered"], 11);
+  EXPECT_EQ(walk["segments"], 2);
+  EXPECT_EQ(walk["points"], 3456);
+  EXPECT_EQ(walk["vertices"], 4567);
+  EXPECT_DOUBLE_EQ(walk["walk_seconds"].get<double>(), 42.5);
+  EXPECT_DOUBLE_EQ(walk["time_unix_s"].get<double>(), 1.8e9);
+  EXPECT_FALSE(walk.contains("report_error")) << walk;
+  EXPECT_EQ(list["entries"][1]["kind"], "pair");
+  const auto map = client_->Get("/api/entries/20261202T101000Z-000003/map.glb");
+  ASSERT_TRUE(map);
+  EXPECT_EQ(map->status, 200);
+  EXPECT_EQ(map->get_header_value("Content-Type"), "model/gltf-binary");
 }
 
 TEST_F(WebServerTest, StatusIsTheDaemonsAnswerOr503) {

@@ -14,7 +14,13 @@ exists, then drives the pages with Selenium:
   capture_refused   Capture without a token, and with a wrong one: 401 shown, no capture started
   capture_live      Capture with the token: the state, the gate's progress and the new entry
                     follow live, without a reload
-  post_401          a plain POST /api/trigger without Authorization (or a wrong token): 401
+  walk_live         Start walk with the token: the walk's keyframes count up live; Stop walk:
+                    the walk's entry appears first in the list, marked as a walk, without a
+                    reload
+  walk_viewer       viewer.html?entry=WALK loads the map; one frustum per registered keyframe
+                    of the map's segment; the canvas shows the map (pixels measured)
+  post_401          a plain POST /api/trigger or /api/walk/start|stop without Authorization
+                    (or a wrong token): 401
   daemon_banner     the daemon stopped: the page says it is unreachable
 
 One `CHECK ok|FAILED NAME` line per check; exit 1 on any failure (with both processes' logs
@@ -66,11 +72,19 @@ CHANNEL_TOLERANCE = 12
 # the bundled dataset); at most MAX_MESH_FRACTION, so that a canvas of one wrong colour fails.
 MIN_MESH_FRACTION = 0.05
 MAX_MESH_FRACTION = 0.6
+# A walk's map is framed with its keyframes' path and seen from higher up: 0.070 of the canvas
+# measured on a 4-keyframe walk of the bundled dataset; the frusta and path alone are < 0.01.
+MIN_WALK_MAP_FRACTION = 0.035
 # Share of canvas pixels that must change with the orbit drag (120 px; measured 0.18-0.20).
 MIN_ORBIT_CHANGE = 0.05
 
 ENTRY_FILES = ["mesh.glb", "obj.zip", "mesh.ply", "points.ply",
                "cameras.txt", "images.txt", "points3D.txt"]
+WALK_FILES = ["map.glb", "map.ply", "points.ply", "trajectory.txt",
+              "cameras.txt", "images.txt", "points3D.txt"]
+# Keyframes the walk takes before it is stopped: the replay's frames are 1 s apart, each one
+# past the walk's parallax gate, so this is a few seconds of walking.
+WALK_KEYFRAMES = 4
 
 
 def canvas_image(driver):
@@ -117,6 +131,7 @@ class Test:
         self.base = f"http://127.0.0.1:{self.port}"
         self.socket = None
         self.entry = None
+        self.walk_entry = None
 
     def check(self, name, function):
         run_check(self.failures, name, function, expected=(Failed, TimeoutException))
@@ -219,23 +234,29 @@ class Test:
             raise Failed("the 'daemon unreachable' banner shows while the daemon runs")
         return f"state {state}, {fps} fps, last result {last!r}"
 
-    def viewer_loaded(self):
-        self.driver.get(f"{self.base}/viewer.html?entry={self.entry}")
+    def load_viewer(self, entry, file_prefix, min_fraction=MIN_MESH_FRACTION):
+        """Opens the viewer on `entry`; returns its body element and the canvas's picture, whose
+        share of non-background pixels must be within bounds."""
+        self.driver.get(f"{self.base}/viewer.html?entry={entry}")
         body = self.driver.find_element(By.TAG_NAME, "body")
         WebDriverWait(self.driver, 60).until(
             lambda d: body.get_attribute("data-loaded") or body.get_attribute("data-error"))
         if body.get_attribute("data-error"):
             raise Failed(f"viewer: {body.get_attribute('data-error')}")
         time.sleep(0.5)
-        self.view = canvas_image(self.driver)
-        self.view.save(os.path.join(self.out, "viewer-canvas.png"))
-        self.screenshot(None, "viewer.png")
-        background = Image.new("RGB", self.view.size, BACKGROUND_RGB)
-        fraction = changed_fraction(self.view, background)
-        detail = f"{fraction:.3f} of {self.view.size[0]}x{self.view.size[1]} canvas pixels " \
-                 f"are not background (need {MIN_MESH_FRACTION} to {MAX_MESH_FRACTION})"
-        if not MIN_MESH_FRACTION <= fraction <= MAX_MESH_FRACTION:
+        view = canvas_image(self.driver)
+        view.save(os.path.join(self.out, f"{file_prefix}-canvas.png"))
+        self.screenshot(None, f"{file_prefix}.png")
+        background = Image.new("RGB", view.size, BACKGROUND_RGB)
+        fraction = changed_fraction(view, background)
+        detail = f"{fraction:.3f} of {view.size[0]}x{view.size[1]} canvas pixels " \
+                 f"are not background (need {min_fraction} to {MAX_MESH_FRACTION})"
+        if not min_fraction <= fraction <= MAX_MESH_FRACTION:
             raise Failed(detail)
+        return body, view, detail
+
+    def viewer_loaded(self):
+        _, self.view, detail = self.load_viewer(self.entry, "viewer")
         return detail
 
     def viewer_error(self):
@@ -338,22 +359,97 @@ class Test:
         return f"{new_name} listed first without a reload; #state went {' -> '.join(states)}, " \
                f"#gate-progress {seen['progress']}"
 
+    def walk_status(self):
+        return get_json(self.base + "/api/status")["walk"]
+
+    def walk_live(self):
+        # The page from capture_live stays (its token kept): the walk is started and stopped
+        # with the page's buttons and followed on the page, without a reload.
+        self.driver.execute_script("window.__noReload = 43;")
+        before = set(self.entry_names())
+        walks = self.walk_status()["walk"]
+        result = self.driver.find_element(By.ID, "capture-result")
+        self.driver.execute_script("arguments[0].textContent = '';", result)
+        self.driver.find_element(By.ID, "walk-start").click()
+        answer = WebDriverWait(self.driver, 10).until(
+            lambda d: result.text not in ("", "…") and result.text)
+        if "walk" not in answer or "started" not in answer:
+            raise Failed(f"#capture-result says {answer!r} after Start walk")
+        walk_text = self.driver.find_element(By.ID, "walk-text")
+        try:
+            WebDriverWait(self.driver, 60).until(lambda d: (
+                re.match(r"(\d+) keyframes", walk_text.text) and
+                int(re.match(r"(\d+) keyframes", walk_text.text).group(1)) >= WALK_KEYFRAMES))
+        except TimeoutException:
+            raise Failed(f"#walk-text did not reach {WALK_KEYFRAMES} keyframes: "
+                         f"{walk_text.text!r}; status {self.walk_status()}")
+        walking = self.driver.find_element(By.ID, "walk-state").text
+        self.screenshot(self.driver.find_element(By.ID, "status-panel"), "status-walk.png")
+        self.driver.execute_script("arguments[0].textContent = '';", result)
+        self.driver.find_element(By.ID, "walk-stop").click()
+        answer = WebDriverWait(self.driver, 10).until(
+            lambda d: result.text not in ("", "…") and result.text)
+        if "stopping" not in answer:
+            raise Failed(f"#capture-result says {answer!r} after Stop walk")
+        try:
+            self.walk_entry = WebDriverWait(self.driver, CAPTURE_WAIT_S).until(lambda d: [
+                e.get_attribute("data-name")
+                for e in d.find_elements(By.CSS_SELECTOR, "#entries .entry")
+                if e.get_attribute("data-name") not in before][:1])[0]
+        except TimeoutException:
+            raise Failed(f"no walk entry in the list within {CAPTURE_WAIT_S} s "
+                         f"(status {self.walk_status()})")
+        if self.driver.execute_script("return window.__noReload;") != 43:
+            raise Failed("the page was reloaded")
+        item = self.entry_item(self.walk_entry)
+        text = item.text
+        for word in ("walk", "keyframes", "registered", "map made"):
+            if word not in text:
+                raise Failed(f"the walk entry's item lacks {word!r}: {text!r}")
+        hrefs = [a.get_attribute("href") for a in item.find_elements(By.CSS_SELECTOR, ".links a")]
+        for file in WALK_FILES:
+            if not any(h.endswith(f"/{self.walk_entry}/{file}?download=1") for h in hrefs):
+                raise Failed(f"no download link for {file} in {hrefs}")
+        WebDriverWait(self.driver, 10).until(
+            lambda d: self.walk_entry in d.find_element(By.ID, "walk-last-result").text)
+        status = self.walk_status()
+        if status["walking"] or status["walk"] != walks + 1:
+            raise Failed(f"after the stop the status says {status}")
+        self.screenshot(self.driver.find_element(By.ID, "entries"), "entries-walk.png")
+        return f"{walking!r}, {self.walk_entry} listed: " \
+               f"{item.find_element(By.CSS_SELECTOR, '.figures').text}"
+
+    def walk_viewer(self):
+        if not self.walk_entry:
+            raise Failed("no walk entry (walk_live failed)")
+        report = get_json(f"{self.base}/api/entries/{self.walk_entry}")
+        expected = sum(1 for k in report["keyframes"]
+                       if k["registered"] and k["segment"] == report["map_segment"])
+        body, _, detail = self.load_viewer(self.walk_entry, "viewer-walk", MIN_WALK_MAP_FRACTION)
+        kind, cameras = body.get_attribute("data-kind"), body.get_attribute("data-cameras")
+        if kind != "walk" or int(cameras or 0) != expected or expected < 2:
+            raise Failed(f"data-kind {kind!r}, {cameras} frusta drawn, the report has "
+                         f"{expected} registered keyframes in the map's segment")
+        return f"{cameras} keyframe frusta; {detail}"
+
     def post_401(self):
-        url = self.base + "/api/trigger"
-        captures = self.captures()
+        captures, walks = self.captures(), self.walk_status()["walk"]
         answers = []
-        for headers in ({}, {"Authorization": "Bearer not-" + self.token},
-                        {"Authorization": self.token}):
-            status, response_headers, body = http(url, "POST", headers)
-            if status != 401:
-                raise Failed(f"POST with {headers or 'no Authorization'}: {status} {body!r}")
-            if "application/json" not in response_headers.get("Content-Type", "") or \
-                    "error" not in json.loads(body):
-                raise Failed(f"the 401 answer is not an error object: {body!r}")
-            answers.append(status)
-        if self.captures() != captures:
-            raise Failed("a refused POST started a capture")
-        return f"no token, wrong token, token without 'Bearer': {answers}"
+        for path in ("/api/trigger", "/api/walk/start", "/api/walk/stop"):
+            for headers in ({}, {"Authorization": "Bearer not-" + self.token},
+                            {"Authorization": self.token}):
+                status, response_headers, body = http(self.base + path, "POST", headers)
+                if status != 401:
+                    raise Failed(f"POST {path} with {headers or 'no Authorization'}: "
+                                 f"{status} {body!r}")
+                if "application/json" not in response_headers.get("Content-Type", "") or \
+                        "error" not in json.loads(body):
+                    raise Failed(f"the 401 answer is not an error object: {body!r}")
+                answers.append(status)
+        if self.captures() != captures or self.walk_status()["walk"] != walks:
+            raise Failed("a refused POST started a capture or a walk")
+        return f"/api/trigger, /api/walk/start, /api/walk/stop with no token, a wrong token, " \
+               f"the token without 'Bearer': {answers}"
 
     def daemon_banner(self):
         self.driver.get(self.base + "/")
@@ -384,6 +480,8 @@ class Test:
         self.check("viewer_error", self.viewer_error)
         self.check("capture_refused", self.capture_refused)
         self.check("capture_live", self.capture_live)
+        self.check("walk_live", self.walk_live)
+        self.check("walk_viewer", self.walk_viewer)
         self.check("post_401", self.post_401)
         self.check("daemon_banner", self.daemon_banner)
 

@@ -1,12 +1,17 @@
 // The status page: the daemon's status and events (Server-Sent Events, docs/web.md), the
-// spool's entries, and the capture button. No framework: a few functions over the DOM.
+// spool's entries, and the capture and walk buttons. No framework: a few functions over the DOM.
 
 const $ = (id) => document.getElementById(id);
 const TOKEN_KEY = "monomesh-token";
 const STATUS_PERIOD_MS = 2000;
-// The entry's files offered for download, in this order (obj.zip is made from mesh.obj).
-const DOWNLOADS = ["mesh.glb", "obj.zip", "mesh.ply", "points.ply",
-                   "cameras.txt", "images.txt", "points3D.txt"];
+// The entry's files offered for download, in this order, by the entry's kind (a pair's obj.zip
+// is made from mesh.obj; a walk's trajectory.txt is TUM format, camera-to-world).
+const DOWNLOADS = {
+  pair: ["mesh.glb", "obj.zip", "mesh.ply", "points.ply", "cameras.txt", "images.txt",
+         "points3D.txt"],
+  walk: ["map.glb", "map.ply", "points.ply", "trajectory.txt", "cameras.txt", "images.txt",
+         "points3D.txt"],
+};
 
 // Creates an element: attributes from `attrs`, then children (strings become text).
 function el(tag, attrs = {}, ...children) {
@@ -45,7 +50,7 @@ function showState(state, capture) {
   const node = $("state");
   node.textContent = state;
   node.dataset.state = state;
-  $("capture-number").textContent = capture ? `(capture ${capture})` : "";
+  $("capture-number").textContent = capture && state !== "walking" ? `(capture ${capture})` : "";
   if (state === "idle") showGate(null);
 }
 
@@ -99,11 +104,51 @@ function showLastResult(result) {
     : `capture ${result.capture} failed: ${result.error}${tries}`;
 }
 
+// The walk (status.walk, docs/control.md): while walking, its keyframes and the parallax
+// toward the next one; then its last result.
+function showWalk(walk) {
+  const state = $("walk-state");
+  const bar = $("walk-progress");
+  state.dataset.walking = walk.walking ? "1" : "0";
+  bar.hidden = !walk.walking;
+  if (walk.walking) {
+    state.textContent = walk.finishing ? `walk ${walk.walk}: making its entry`
+                                       : `walk ${walk.walk}: walking`;
+    const target = Number(walk.target_deg) || 0;
+    const parallax = Number(walk.parallax_deg) || 0;
+    bar.value = target > 0 ? Math.min(parallax / target, 1) : 0;
+    $("walk-text").textContent = `${walk.keyframes} keyframes, ${walk.registered} registered, ` +
+      `segment ${walk.segment}, ${walk.frames} frames, ${Number(walk.seconds).toFixed(0)} s` +
+      (walk.finishing ? "" : `; next keyframe at ${parallax.toFixed(2)}° of ${target.toFixed(2)}°`);
+  } else {
+    state.textContent = "not walking";
+    $("walk-text").textContent = "";
+  }
+  showWalkResult(walk.last_result);
+}
+
+// The last walk's outcome: {walk, ok, entry, error, reason, keyframes, registered, segments}.
+function showWalkResult(result) {
+  const node = $("walk-last-result");
+  if (!result) {
+    node.textContent = "";
+    delete node.dataset.ok;
+    return;
+  }
+  node.dataset.ok = result.ok ? "1" : "0";
+  const counts = `${result.keyframes} keyframes, ${result.registered} registered, ` +
+    `${result.segments} segments`;
+  node.textContent = result.ok
+    ? `last walk ${result.walk} (${result.reason}): entry ${baseName(result.entry)}, ${counts}`
+    : `last walk ${result.walk} failed: ${result.error}`;
+}
+
 function showStatus(status) {
   showState(status.state, status.captures);
   if (status.state === "tracking" && status.gate) showGate(status.gate);
   if (status.camera) showCamera(status.camera);
   showLastResult(status.last_result);
+  if (status.walk) showWalk(status.walk);
 }
 
 async function pollStatus() {
@@ -118,7 +163,20 @@ async function pollStatus() {
 
 // --- entries ------------------------------------------------------------------------------
 
+function walkFigures(e) {
+  const parts = [`${e.keyframes} keyframes`, `${e.registered} registered`,
+                 `${e.segments} segment${e.segments === 1 ? "" : "s"}`];
+  if (e.stop_reason) parts.push(`stopped: ${e.stop_reason}`);
+  if (e.walk_seconds) parts.push(`${Number(e.walk_seconds).toFixed(0)} s`);
+  for (const key of ["vertices", "triangles", "points"]) {
+    if (e[key] !== undefined) parts.push(`${e[key]} ${key}`);
+  }
+  if (e.units) parts.push(`units: ${e.units}`);
+  return parts.join(" · ");
+}
+
 function figures(e) {
+  if (e.kind === "walk") return walkFigures(e);
   const parts = [];
   if (e.pair) parts.push(`pair ${e.pair}`);
   if (e.mesh_mode) parts.push(`${e.mesh_mode} mesh`);
@@ -138,16 +196,19 @@ function figures(e) {
 function entryItem(e) {
   const files = e.files || [];
   const has = (file) => files.includes(file) || (file === "obj.zip" && files.includes("mesh.obj"));
+  const walk = e.kind === "walk";
   const viewer = `/viewer.html?entry=${encodeURIComponent(e.name)}`;
   const when = e.time_unix_s ? new Date(e.time_unix_s * 1000).toLocaleString() : "";
 
   const result = e.report_error ? el("p", { class: "error" }, `report: ${e.report_error}`)
-    : e.success ? el("p", { class: "ok" }, "mesh made")
+    : e.success ? el("p", { class: "ok" }, walk ? "map made" : "mesh made")
     : el("p", { class: "error" }, `failed: ${e.failure_reason || "unknown reason"}`);
 
   const links = el("p", { class: "links" });
-  if (has("mesh.glb")) links.append(el("a", { href: viewer, class: "view" }, "view in 3-D"));
-  for (const file of DOWNLOADS.filter(has)) {
+  if (has(walk ? "map.glb" : "mesh.glb")) {
+    links.append(el("a", { href: viewer, class: "view" }, "view in 3-D"));
+  }
+  for (const file of DOWNLOADS[walk ? "walk" : "pair"].filter(has)) {
     links.append(el("a", { href: `${entryUrl(e.name, file)}?download=1`, download: "" }, file));
   }
 
@@ -159,7 +220,8 @@ function entryItem(e) {
   return el("li", { class: `entry ${e.success ? "success" : "failure"}`, "data-name": e.name },
             preview,
             el("div", { class: "about" },
-               el("h3", {}, e.name, " ", el("time", {}, when)),
+               el("h3", {}, e.name, walk ? el("span", { class: "kind" }, "walk") : null, " ",
+                  el("time", {}, when)),
                result,
                el("p", { class: "figures" }, figures(e)),
                links));
@@ -213,6 +275,15 @@ function listen() {
     refreshEntries();
   });
   on("capture_failed", (f) => showLastResult({ ...f, ok: false }));
+  // A walk's events carry only what changed: the whole walk comes from the status.
+  for (const name of ["walk_started", "walk_keyframe", "walk_stopping", "walk_failed"]) {
+    on(name, pollStatus);
+  }
+  on("walk_entry", () => { pollStatus(); refreshEntries(); });
+  on("walk_refused", (r) => {
+    $("walk-last-result").textContent = `walk refused: ${r.error}`;
+    $("walk-last-result").dataset.ok = "0";
+  });
   on("capture_abandoned", (f) => showLastResult({ ...f, ok: false }));
   on("camera_error", (c) => {
     $("camera-errors").textContent = c.errors;
@@ -221,34 +292,41 @@ function listen() {
   events.onerror = () => showBanner("event stream lost; reconnecting…");
 }
 
-// --- capture ------------------------------------------------------------------------------
+// --- the buttons: capture, walk start and stop --------------------------------------------
 
-async function capture(event) {
-  event.preventDefault();
+// Reads a typed token (it replaces the stored one; the field is emptied once it is kept) and
+// returns the token to send.
+function takeToken() {
   const input = $("token");
-  const out = $("capture-result");
-  // A typed token replaces the stored one; the field is emptied once it is kept.
   if (input.value.trim()) {
     sessionStorage.setItem(TOKEN_KEY, input.value.trim());
     input.value = "";
   }
   const token = sessionStorage.getItem(TOKEN_KEY);
   input.placeholder = token ? "token kept for this session" : "token";
+  return token;
+}
+
+// POSTs `url` with the token and shows the outcome in #capture-result; `describe` turns the
+// daemon's accepting answer into words.
+async function press(url, describe) {
+  const out = $("capture-result");
+  const token = takeToken();
   out.textContent = "…";
   out.dataset.outcome = "pending";
   try {
-    const answer = await fetch("/api/trigger", {
+    const answer = await fetch(url, {
       method: "POST",
       headers: token ? { Authorization: `Bearer ${token}` } : {},
     });
     const body = await answer.json().catch(() => ({}));
     if (answer.status === 401) {
       sessionStorage.removeItem(TOKEN_KEY);  // asked again next time
-      input.placeholder = "token";
+      $("token").placeholder = "token";
       out.textContent = "401: token refused";
       out.dataset.outcome = "refused";
     } else if (answer.ok && body.ok) {
-      out.textContent = `capture ${body.capture} started`;
+      out.textContent = describe(body);
       out.dataset.outcome = "ok";
     } else if (answer.ok) {
       out.textContent = `refused: ${body.error || "no reason given"}`;  // e.g. busy: tracking
@@ -263,10 +341,19 @@ async function capture(event) {
   }
 }
 
+function capture(event) {
+  event.preventDefault();
+  return press("/api/trigger", (body) => `capture ${body.capture} started`);
+}
+
 // --- start --------------------------------------------------------------------------------
 
 if (sessionStorage.getItem(TOKEN_KEY)) $("token").placeholder = "token kept for this session";
 $("capture-form").addEventListener("submit", capture);
+$("walk-start").addEventListener("click",
+  () => press("/api/walk/start", (body) => `walk ${body.walk} started`));
+$("walk-stop").addEventListener("click",
+  () => press("/api/walk/stop", (body) => `walk ${body.walk} stopping (${body.keyframes} keyframes)`));
 pollStatus();
 refreshEntries();
 listen();
