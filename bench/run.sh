@@ -10,6 +10,7 @@
 # both reported: on a shared, loaded machine the CPU time is the fairer comparison.
 #
 # Usage: bench/run.sh [--build DIR] [--dataset DIR] [--calib FILE] [--json OUT] [--pairs N]
+#                     [--only SECTION[,SECTION...]]   (eval, benchmarks, colmap, daemon)
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -18,6 +19,7 @@ dataset="$root/../shared/data/tum_fr3_long_office_household"
 calib="$root/data/tum_office/calib.toml"
 out="$root/build/bench.json"
 max_pairs=16
+only="eval,benchmarks,colmap,daemon"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build="$2"; shift 2 ;;
@@ -25,38 +27,25 @@ while [[ $# -gt 0 ]]; do
     --calib) calib="$2"; shift 2 ;;
     --json) out="$2"; shift 2 ;;
     --pairs) max_pairs="$2"; shift 2 ;;
+    --only) only="$2"; shift 2 ;;
     *) echo "unknown argument $1" >&2; exit 2 ;;
   esac
 done
 [[ -d "$dataset" ]] || { echo "bench: no dataset at $dataset" >&2; exit 77; }
+for section in ${only//,/ }; do
+  case "$section" in
+    eval | benchmarks | colmap | daemon) ;;
+    *) echo "bench: unknown section '$section'" >&2; exit 2 ;;
+  esac
+done
+want() { [[ ",$only," == *",$1,"* ]]; }
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-
-echo "== monomesh eval (one thread)"
-"$build/firmware-app/monomesh" eval --dataset "$dataset" --calib "$calib" \
-  --list keyframes_1hz.txt --step 1 --threads 1 --json "$work/monomesh.json" --quiet
-
-echo "== Google Benchmarks"
-: > "$work/benchmarks.list"
-while IFS= read -r exe; do
-  name="$(basename "$exe")"
-  echo "-- $name"
-  if [[ "$name" == capture_capture_bench ]]; then
-    # Not a Google Benchmark: the capture thread replaying 1280x720 frames per software path,
-    # frames dropped and CPU per frame (argument: seconds per path).
-    "$exe" 3
-    continue
-  fi
-  "$exe" --benchmark_format=console --benchmark_out="$work/$name.json" \
-    --benchmark_out_format=json
-  echo "$work/$name.json" >> "$work/benchmarks.list"
-done < <(find "$build" -type f -name '*_bench' -perm -u+x | sort)
-
-colmap_ok=0
-if command -v colmap > /dev/null; then
-  echo "== COLMAP $(colmap -h 2>/dev/null | grep -m1 -o 'COLMAP [0-9.]*' || true) (one thread, CPU)"
-  export QT_QPA_PLATFORM=offscreen
-  params="$(python3 - "$calib" <<'PY'
+has_colmap=0
+command -v colmap > /dev/null && has_colmap=1
+export QT_QPA_PLATFORM=offscreen
+# COLMAP's PINHOLE parameters (fx, fy, cx, cy) from the calibration, for COLMAP.
+params="$(python3 - "$calib" <<'PY'
 import re, sys
 text = open(sys.argv[1]).read()
 fc = re.search(r"^fc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
@@ -64,6 +53,34 @@ cc = re.search(r"^cc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
 print(",".join(v.strip() for v in fc + cc))
 PY
 )"
+
+if want eval; then
+  echo "== monomesh eval (one thread)"
+  "$build/firmware-app/monomesh" eval --dataset "$dataset" --calib "$calib" \
+    --list keyframes_1hz.txt --step 1 --threads 1 --json "$work/monomesh.json" --quiet
+fi
+
+if want benchmarks; then
+  echo "== Google Benchmarks"
+  : > "$work/benchmarks.list"
+  while IFS= read -r exe; do
+    name="$(basename "$exe")"
+    echo "-- $name"
+    if [[ "$name" == capture_capture_bench ]]; then
+      # Not a Google Benchmark: the capture thread replaying 1280x720 frames per software path,
+      # frames dropped and CPU per frame (argument: seconds per path).
+      "$exe" 3
+      continue
+    fi
+    "$exe" --benchmark_format=console --benchmark_out="$work/$name.json" \
+      --benchmark_out_format=json
+    echo "$work/$name.json" >> "$work/benchmarks.list"
+  done < <(find "$build" -type f -name '*_bench' -perm -u+x | sort)
+fi
+
+colmap_ok=0
+if want colmap && [[ $has_colmap == 1 ]]; then
+  echo "== COLMAP $(colmap -h 2>/dev/null | grep -m1 -o 'COLMAP [0-9.]*' || true) (one thread, CPU)"
   mapfile -t frames < <(grep -v '^#' "$dataset/keyframes_1hz.txt" | awk '{print $2}')
   : > "$work/colmap.tsv"
   n=0
@@ -104,19 +121,20 @@ PY
       >> "$work/colmap.tsv"
   done
   colmap_ok=1
-else
+elif want colmap; then
   echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): skipped"
 fi
 
-echo "== monomeshd start-up and footprint (bundled keyframes replayed at 640x480 and 1280x720)"
-# Time from exec to READY (the control socket answers once the camera is open) and the daemon's
-# peak RSS (VmHWM) after one capture reconstructed at that size.
 : > "$work/footprint.tsv"
-for size in 640x480 1280x720; do
-  w=${size%x*}; h=${size#*x}
-  sx=$(python3 -c "print($w/640)"); sy=$(python3 -c "print($h/480)")
-  d="$work/daemon-$size"; mkdir -p "$d"
-  python3 - "$root/data/tum_office/calib.toml" "$sx" "$sy" "$w" "$h" > "$d/calib.toml" <<'PY'
+if want daemon; then
+  echo "== monomeshd start-up and footprint (bundled keyframes replayed at 640x480 and 1280x720)"
+  # Time from exec to READY (the control socket answers once the camera is open) and the daemon's
+  # peak RSS (VmHWM) after one capture reconstructed at that size.
+  for size in 640x480 1280x720; do
+    w=${size%x*}; h=${size#*x}
+    sx=$(python3 -c "print($w/640)"); sy=$(python3 -c "print($h/480)")
+    d="$work/daemon-$size"; mkdir -p "$d"
+    python3 - "$root/data/tum_office/calib.toml" "$sx" "$sy" "$w" "$h" > "$d/calib.toml" <<'PY'
 import re, sys
 text, sx, sy, w, h = open(sys.argv[1]).read(), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4], sys.argv[5]
 def scale(key, f):
@@ -128,7 +146,7 @@ scale("fc", (sx, sy)); scale("cc", (sx, sy))
 text = re.sub(r"^image_size\s*=.*$", f"image_size = [{w}, {h}]", text, flags=re.M)
 print(text)
 PY
-  cat > "$d/monomeshd.toml" <<TOML
+    cat > "$d/monomeshd.toml" <<TOML
 [camera]
 uri = "replay:$root/data/tum_office?rate=realtime&loop=1&width=$w&height=$h"
 calibration = "$d/calib.toml"
@@ -138,41 +156,48 @@ group = ""
 [spool]
 dir = "$d/spool"
 TOML
-  start=$(date +%s.%N)
-  "$build/firmware-app/monomeshd" --config "$d/monomeshd.toml" 2> "$d/log" &
-  pid=$!
-  until "$build/firmware-app/monomesh" ctl ping --socket "$d/control.sock" > /dev/null 2>&1; do
-    kill -0 $pid 2> /dev/null || { cat "$d/log"; exit 1; }
-    sleep 0.005
+    start=$(date +%s.%N)
+    "$build/firmware-app/monomeshd" --config "$d/monomeshd.toml" 2> "$d/log" &
+    pid=$!
+    until "$build/firmware-app/monomesh" ctl ping --socket "$d/control.sock" > /dev/null 2>&1; do
+      kill -0 $pid 2> /dev/null || { cat "$d/log"; exit 1; }
+      sleep 0.005
+    done
+    ready=$(python3 -c "print($(date +%s.%N) - $start)")
+    "$build/firmware-app/monomesh" ctl trigger --wait 120 --socket "$d/control.sock" > "$d/result.json"
+    hwm=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
+    kill -TERM $pid; wait $pid || true
+    ok=$(grep -c '"ok": true' "$d/result.json" || true)
+    printf '%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$ok" >> "$work/footprint.tsv"
+    printf '%s: READY after %.3f s, peak RSS %d MiB, capture ok=%s\n' "$size" "$ready" $((hwm / 1024)) "$ok"
   done
-  ready=$(python3 -c "print($(date +%s.%N) - $start)")
-  "$build/firmware-app/monomesh" ctl trigger --wait 120 --socket "$d/control.sock" > "$d/result.json"
-  hwm=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
-  kill -TERM $pid; wait $pid || true
-  ok=$(grep -c '"ok": true' "$d/result.json" || true)
-  printf '%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$ok" >> "$work/footprint.tsv"
-  printf '%s: READY after %.3f s, peak RSS %d MiB, capture ok=%s\n' "$size" "$ready" $((hwm / 1024)) "$ok"
-done
+fi
 
 python3 - "$work" "$out" "$colmap_ok" <<'PY'
-import json, statistics, sys
+import json, os, statistics, sys
 work, out, colmap_ok = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
-mm = json.load(open(f"{work}/monomesh.json"))
-s = mm["summary"]
-result = {"monomesh": {"summary": s,
-                       "pairs": [{"a": p["a"], "b": p["b"], "success": p["success"],
-                                  "time_s": p["time_s"]} for p in mm["pairs"]]},
-          "benchmarks": {}}
-for path in open(f"{work}/benchmarks.list").read().split():
-    data = json.load(open(path))
-    result["benchmarks"][path.rsplit("/", 1)[-1][:-5]] = [
-        {"name": b["name"], "real_time": b["real_time"], "cpu_time": b["cpu_time"],
-         "time_unit": b["time_unit"]} for b in data["benchmarks"]]
-print("\n== Summary (median per pair, one thread)")
-print(f"monomesh: two images {s['time_s']['median']:.3f} s wall / {s['time_s']['cpu_median']:.3f} s CPU; "
-      f"after B {s['time_s']['median_after_b']:.3f} s wall / {s['time_s']['cpu_median_after_b']:.3f} s CPU; "
-      f"{s['succeeded']}/{s['pairs']} pairs, rot {s['rot_err_deg']['median']:.3f} deg, "
-      f"trans {s['trans_err_deg']['median']:.3f} deg")
+result = {}
+s = None
+if os.path.exists(f"{work}/monomesh.json"):
+    mm = json.load(open(f"{work}/monomesh.json"))
+    s = mm["summary"]
+    result["monomesh"] = {"summary": s,
+                          "pairs": [{"a": p["a"], "b": p["b"], "success": p["success"],
+                                     "time_s": p["time_s"]} for p in mm["pairs"]]}
+if os.path.exists(f"{work}/benchmarks.list"):
+    result["benchmarks"] = {}
+    for path in open(f"{work}/benchmarks.list").read().split():
+        data = json.load(open(path))
+        result["benchmarks"][path.rsplit("/", 1)[-1][:-5]] = [
+            {"name": b["name"], "real_time": b["real_time"], "cpu_time": b["cpu_time"],
+             "time_unit": b["time_unit"]} for b in data["benchmarks"]]
+if s or colmap_ok:
+    print("\n== Summary (median per pair, one thread)")
+if s:
+    print(f"monomesh: two images {s['time_s']['median']:.3f} s wall / {s['time_s']['cpu_median']:.3f} s CPU; "
+          f"after B {s['time_s']['median_after_b']:.3f} s wall / {s['time_s']['cpu_median_after_b']:.3f} s CPU; "
+          f"{s['succeeded']}/{s['pairs']} pairs, rot {s['rot_err_deg']['median']:.3f} deg, "
+          f"trans {s['trans_err_deg']['median']:.3f} deg")
 if colmap_ok:
     rows = [l.split("\t") for l in open(f"{work}/colmap.tsv").read().splitlines() if l]
     wall = [float(r[1]) for r in rows]
@@ -182,14 +207,15 @@ if colmap_ok:
     result["colmap"] = {"pairs": len(rows), "reconstructed": reg,
                         "time_s": {"median": med, "cpu_median": med_cpu},
                         "per_pair_wall_s": wall, "per_pair_cpu_s": cpu}
-    ratios = {"wall_two_images": med / s["time_s"]["median"],
-              "cpu_two_images": med_cpu / s["time_s"]["cpu_median"],
-              "cpu_after_b": med_cpu / s["time_s"]["cpu_median_after_b"]}
-    result["ratio_colmap_over_monomesh"] = ratios
     print(f"COLMAP:   {med:.3f} s wall / {med_cpu:.3f} s CPU per pair "
           f"({reg}/{len(rows)} pairs reconstructed)")
-    print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
-          f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
+    if s:
+        ratios = {"wall_two_images": med / s["time_s"]["median"],
+                  "cpu_two_images": med_cpu / s["time_s"]["cpu_median"],
+                  "cpu_after_b": med_cpu / s["time_s"]["cpu_median_after_b"]}
+        result["ratio_colmap_over_monomesh"] = ratios
+        print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
+              f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
 result["daemon_footprint"] = [
     {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]), "capture_ok": r[3] == "1"}
     for r in (l.split("\t") for l in open(f"{work}/footprint.tsv").read().splitlines() if l)]
