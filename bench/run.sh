@@ -5,12 +5,15 @@
 #   2. every *_bench Google Benchmark binary in the build (e.g. recon_matcher_bench);
 #   3. monomeshd's time to READY and peak RSS while reconstructing a 640x480 and a 1280x720 pair;
 #   4. COLMAP (when `colmap` is installed) on the same pairs: feature_extractor,
-#      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT.
+#      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT;
+#   5. the walk: `monomesh eval --walk --every-frame` on the 17 TUM keyframes, and COLMAP's
+#      incremental mapper on the same 17 images (one thread, CPU SIFT, exhaustive matching,
+#      intrinsics fixed): registered keyframes, ATE after a Sim(3) (bench/walk_ate.py), CPU time.
 # Prints both and the ratio, and writes everything as JSON. Wall and CPU (user + sys) time are
 # both reported: on a shared, loaded machine the CPU time is the fairer comparison.
 #
 # Usage: bench/run.sh [--build DIR] [--dataset DIR] [--calib FILE] [--json OUT] [--pairs N]
-#                     [--only SECTION[,SECTION...]]   (eval, benchmarks, colmap, daemon)
+#                     [--only SECTION[,SECTION...]]   (eval, benchmarks, colmap, daemon, walk)
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -19,7 +22,7 @@ dataset="$root/../shared/data/tum_fr3_long_office_household"
 calib="$root/data/tum_office/calib.toml"
 out="$root/build/bench.json"
 max_pairs=16
-only="eval,benchmarks,colmap,daemon"
+only="eval,benchmarks,colmap,daemon,walk"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build="$2"; shift 2 ;;
@@ -34,7 +37,7 @@ done
 [[ -d "$dataset" ]] || { echo "bench: no dataset at $dataset" >&2; exit 77; }
 for section in ${only//,/ }; do
   case "$section" in
-    eval | benchmarks | colmap | daemon) ;;
+    eval | benchmarks | colmap | daemon | walk) ;;
     *) echo "bench: unknown section '$section'" >&2; exit 2 ;;
   esac
 done
@@ -44,7 +47,7 @@ trap 'rm -rf "$work"' EXIT
 has_colmap=0
 command -v colmap > /dev/null && has_colmap=1
 export QT_QPA_PLATFORM=offscreen
-# COLMAP's PINHOLE parameters (fx, fy, cx, cy) from the calibration, for COLMAP.
+# COLMAP's PINHOLE parameters (fx, fy, cx, cy) from the calibration, for both COLMAP sections.
 params="$(python3 - "$calib" <<'PY'
 import re, sys
 text = open(sys.argv[1]).read()
@@ -173,6 +176,78 @@ TOML
   done
 fi
 
+walk_list=keyframes_1hz.txt
+if want walk; then
+  echo "== monomesh eval --walk --every-frame on $walk_list (one thread)"
+  # Wall and CPU (user + sys, getrusage of the child) of the whole process; the JSON holds the
+  # walk's own CPU (reading the images and the walk, not the evaluation after it).
+  python3 - "$work/walk_time.txt" "$build/firmware-app/monomesh" eval --walk --every-frame \
+    --dataset "$dataset" --calib "$calib" --list "$walk_list" --threads 1 \
+    --json "$work/walk.json" --quiet <<'PY'
+import resource, subprocess, sys, time
+start = time.monotonic()
+rc = subprocess.run(sys.argv[2:]).returncode
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
+sys.exit(rc)
+PY
+  if [[ $has_colmap == 1 ]]; then
+    echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
+    d="$work/colmap_walk"
+    mkdir -p "$d/images" "$d/sparse" "$d/txt"
+    grep -v '^#' "$dataset/$walk_list" | while read -r _ file; do cp "$dataset/$file" "$d/images/"; done
+    # As the pair section (PINHOLE, intrinsics fixed, one thread, CPU SIFT) but with the mapper's
+    # own initialisation angle (16 deg; it relaxes it when no pair passes), seeded.
+    python3 - "$d" "$params" > "$d/time.txt" <<'PY'
+import resource, subprocess, sys, time
+d, params = sys.argv[1], sys.argv[2]
+cmds = [
+    ["colmap", "feature_extractor", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--ImageReader.camera_model", "PINHOLE", "--ImageReader.single_camera", "1",
+     "--ImageReader.camera_params", params,
+     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"],
+    ["colmap", "exhaustive_matcher", "--database_path", f"{d}/db.db",
+     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"],
+    ["colmap", "mapper", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--output_path", f"{d}/sparse", "--Mapper.num_threads", "1",
+     "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
+     "--Mapper.ba_refine_extra_params", "0"],
+]
+start = time.monotonic()
+with open(f"{d}/log.txt", "w") as log:
+    for c in cmds:
+        if subprocess.run(c + ["--random_seed", "17"], stdout=log,
+                          stderr=subprocess.STDOUT).returncode != 0:
+            break
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}")
+PY
+    # Every model COLMAP made, as text; walk_ate.py evaluates the largest.
+    for m in "$d"/sparse/*/; do
+      [[ -f "$m/images.bin" ]] || continue
+      t="$d/txt/$(basename "$m")"
+      mkdir -p "$t"
+      colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
+        >> "$d/log.txt" 2>&1
+    done
+    mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
+    python3 "$root/bench/walk_ate.py" --dataset "$dataset" --list "$walk_list" "${models[@]}" \
+      > "$work/colmap_walk.json"
+    read -r wall cpu < "$d/time.txt"
+    python3 - "$work/colmap_walk.json" "$wall" "$cpu" <<'PY'
+import json, sys
+c = json.load(open(sys.argv[1]))
+ate = f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE" if "ate_rmse_m" in c else "no ATE"
+print(f"COLMAP: {c['registered']}/{c['total']} registered in the largest of {c['models']} model(s), "
+      f"{ate}; {float(sys.argv[2]):.2f} s wall / {float(sys.argv[3]):.2f} s CPU")
+PY
+  else
+    echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): walk skipped"
+  fi
+fi
+
 python3 - "$work" "$out" "$colmap_ok" <<'PY'
 import json, os, statistics, sys
 work, out, colmap_ok = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
@@ -216,6 +291,33 @@ if colmap_ok:
         result["ratio_colmap_over_monomesh"] = ratios
         print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
               f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
+if os.path.exists(f"{work}/walk.json"):
+    # The walk: monomesh's own CPU of the walk (eval's cpu_total_s: images read and walked) and
+    # of its whole process (getrusage, with the evaluation after the walk), COLMAP's three commands.
+    w = json.load(open(f"{work}/walk.json"))["summary"]["walk"]
+    wall, cpu = (float(v) for v in open(f"{work}/walk_time.txt").read().split())
+    n = w["frames"]
+    walk = {"monomesh": {**w, "process_wall_s": wall, "process_cpu_s": cpu,
+                         "cpu_per_keyframe_s_mean": w["cpu_total_s"] / n}}
+    print(f"\n== Walk ({n} TUM keyframes, every frame a keyframe, one thread; ATE after Sim(3))")
+    print(f"monomesh: {w['registered']}/{n} registered, {w['segments']} segment(s), "
+          f"ATE {100 * w['ate_rmse_m']:.2f} cm RMSE; {w['cpu_total_s']:.2f} s CPU walk "
+          f"({1e3 * w['cpu_total_s'] / n:.0f} ms per keyframe, median "
+          f"{1e3 * w['cpu_per_keyframe_s_median']:.0f} ms), process {wall:.2f} s wall / {cpu:.2f} s CPU")
+    if os.path.exists(f"{work}/colmap_walk.json"):
+        c = json.load(open(f"{work}/colmap_walk.json"))
+        c_wall, c_cpu = (float(v) for v in open(f"{work}/colmap_walk/time.txt").read().split())
+        c.update(wall_s=c_wall, cpu_s=c_cpu, cpu_per_keyframe_s_mean=c_cpu / c["total"])
+        walk["colmap"] = c
+        ate = f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE" if "ate_rmse_m" in c else "no ATE"
+        print(f"COLMAP:   {c['registered']}/{c['total']} registered, {c['models']} model(s), {ate}; "
+              f"{c_cpu:.2f} s CPU ({c_cpu / c['total']:.2f} s per keyframe), {c_wall:.2f} s wall")
+        ratios = {"cpu_walk": c_cpu / w["cpu_total_s"], "cpu_process": c_cpu / cpu,
+                  "wall_process": c_wall / wall}
+        walk["ratio_colmap_over_monomesh"] = ratios
+        print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
+              f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
+    result["walk"] = walk
 result["daemon_footprint"] = [
     {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]), "capture_ok": r[3] == "1"}
     for r in (l.split("\t") for l in open(f"{work}/footprint.tsv").read().splitlines() if l)]
