@@ -5,11 +5,15 @@
 #   2. every *_bench Google Benchmark binary in the build (e.g. recon_matcher_bench);
 #   3. monomeshd's time to READY and peak RSS while reconstructing a 640x480 and a 1280x720 pair;
 #   4. COLMAP (when `colmap` is installed) on the same pairs: feature_extractor,
-#      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT.
+#      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT;
+#   5. the walk: `monomesh eval --walk --every-frame` on the 17 TUM keyframes, and COLMAP's
+#      incremental mapper on the same 17 images (one thread, CPU SIFT, exhaustive matching,
+#      intrinsics fixed): registered keyframes, ATE after a Sim(3) (bench/walk_ate.py), CPU time.
 # Prints both and the ratio, and writes everything as JSON. Wall and CPU (user + sys) time are
 # both reported: on a shared, loaded machine the CPU time is the fairer comparison.
 #
 # Usage: bench/run.sh [--build DIR] [--dataset DIR] [--calib FILE] [--json OUT] [--pairs N]
+#                     [--only SECTION[,SECTION...]]   (eval, benchmarks, colmap, daemon, walk)
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -18,6 +22,7 @@ dataset="$root/../shared/data/tum_fr3_long_office_household"
 calib="$root/data/tum_office/calib.toml"
 out="$root/build/bench.json"
 max_pairs=16
+only="eval,benchmarks,colmap,daemon,walk"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build="$2"; shift 2 ;;
@@ -25,38 +30,25 @@ while [[ $# -gt 0 ]]; do
     --calib) calib="$2"; shift 2 ;;
     --json) out="$2"; shift 2 ;;
     --pairs) max_pairs="$2"; shift 2 ;;
+    --only) only="$2"; shift 2 ;;
     *) echo "unknown argument $1" >&2; exit 2 ;;
   esac
 done
 [[ -d "$dataset" ]] || { echo "bench: no dataset at $dataset" >&2; exit 77; }
+for section in ${only//,/ }; do
+  case "$section" in
+    eval | benchmarks | colmap | daemon | walk) ;;
+    *) echo "bench: unknown section '$section'" >&2; exit 2 ;;
+  esac
+done
+want() { [[ ",$only," == *",$1,"* ]]; }
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-
-echo "== monomesh eval (one thread)"
-"$build/firmware-app/monomesh" eval --dataset "$dataset" --calib "$calib" \
-  --list keyframes_1hz.txt --step 1 --threads 1 --json "$work/monomesh.json" --quiet
-
-echo "== Google Benchmarks"
-: > "$work/benchmarks.list"
-while IFS= read -r exe; do
-  name="$(basename "$exe")"
-  echo "-- $name"
-  if [[ "$name" == capture_capture_bench ]]; then
-    # Not a Google Benchmark: the capture thread replaying 1280x720 frames per software path,
-    # frames dropped and CPU per frame (argument: seconds per path).
-    "$exe" 3
-    continue
-  fi
-  "$exe" --benchmark_format=console --benchmark_out="$work/$name.json" \
-    --benchmark_out_format=json
-  echo "$work/$name.json" >> "$work/benchmarks.list"
-done < <(find "$build" -type f -name '*_bench' -perm -u+x | sort)
-
-colmap_ok=0
-if command -v colmap > /dev/null; then
-  echo "== COLMAP $(colmap -h 2>/dev/null | grep -m1 -o 'COLMAP [0-9.]*' || true) (one thread, CPU)"
-  export QT_QPA_PLATFORM=offscreen
-  params="$(python3 - "$calib" <<'PY'
+has_colmap=0
+command -v colmap > /dev/null && has_colmap=1
+export QT_QPA_PLATFORM=offscreen
+# COLMAP's PINHOLE parameters (fx, fy, cx, cy) from the calibration, for both COLMAP sections.
+params="$(python3 - "$calib" <<'PY'
 import re, sys
 text = open(sys.argv[1]).read()
 fc = re.search(r"^fc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
@@ -64,6 +56,34 @@ cc = re.search(r"^cc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
 print(",".join(v.strip() for v in fc + cc))
 PY
 )"
+
+if want eval; then
+  echo "== monomesh eval (one thread)"
+  "$build/firmware-app/monomesh" eval --dataset "$dataset" --calib "$calib" \
+    --list keyframes_1hz.txt --step 1 --threads 1 --json "$work/monomesh.json" --quiet
+fi
+
+if want benchmarks; then
+  echo "== Google Benchmarks"
+  : > "$work/benchmarks.list"
+  while IFS= read -r exe; do
+    name="$(basename "$exe")"
+    echo "-- $name"
+    if [[ "$name" == capture_capture_bench ]]; then
+      # Not a Google Benchmark: the capture thread replaying 1280x720 frames per software path,
+      # frames dropped and CPU per frame (argument: seconds per path).
+      "$exe" 3
+      continue
+    fi
+    "$exe" --benchmark_format=console --benchmark_out="$work/$name.json" \
+      --benchmark_out_format=json
+    echo "$work/$name.json" >> "$work/benchmarks.list"
+  done < <(find "$build" -type f -name '*_bench' -perm -u+x | sort)
+fi
+
+colmap_ok=0
+if want colmap && [[ $has_colmap == 1 ]]; then
+  echo "== COLMAP $(colmap -h 2>/dev/null | grep -m1 -o 'COLMAP [0-9.]*' || true) (one thread, CPU)"
   mapfile -t frames < <(grep -v '^#' "$dataset/keyframes_1hz.txt" | awk '{print $2}')
   : > "$work/colmap.tsv"
   n=0
@@ -104,19 +124,20 @@ PY
       >> "$work/colmap.tsv"
   done
   colmap_ok=1
-else
+elif want colmap; then
   echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): skipped"
 fi
 
-echo "== monomeshd start-up and footprint (bundled keyframes replayed at 640x480 and 1280x720)"
-# Time from exec to READY (the control socket answers once the camera is open) and the daemon's
-# peak RSS (VmHWM) after one capture reconstructed at that size.
 : > "$work/footprint.tsv"
-for size in 640x480 1280x720; do
-  w=${size%x*}; h=${size#*x}
-  sx=$(python3 -c "print($w/640)"); sy=$(python3 -c "print($h/480)")
-  d="$work/daemon-$size"; mkdir -p "$d"
-  python3 - "$root/data/tum_office/calib.toml" "$sx" "$sy" "$w" "$h" > "$d/calib.toml" <<'PY'
+if want daemon; then
+  echo "== monomeshd start-up and footprint (bundled keyframes replayed at 640x480 and 1280x720)"
+  # Time from exec to READY (the control socket answers once the camera is open) and the daemon's
+  # peak RSS (VmHWM) after one capture reconstructed at that size.
+  for size in 640x480 1280x720; do
+    w=${size%x*}; h=${size#*x}
+    sx=$(python3 -c "print($w/640)"); sy=$(python3 -c "print($h/480)")
+    d="$work/daemon-$size"; mkdir -p "$d"
+    python3 - "$root/data/tum_office/calib.toml" "$sx" "$sy" "$w" "$h" > "$d/calib.toml" <<'PY'
 import re, sys
 text, sx, sy, w, h = open(sys.argv[1]).read(), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4], sys.argv[5]
 def scale(key, f):
@@ -128,7 +149,7 @@ scale("fc", (sx, sy)); scale("cc", (sx, sy))
 text = re.sub(r"^image_size\s*=.*$", f"image_size = [{w}, {h}]", text, flags=re.M)
 print(text)
 PY
-  cat > "$d/monomeshd.toml" <<TOML
+    cat > "$d/monomeshd.toml" <<TOML
 [camera]
 uri = "replay:$root/data/tum_office?rate=realtime&loop=1&width=$w&height=$h"
 calibration = "$d/calib.toml"
@@ -138,41 +159,120 @@ group = ""
 [spool]
 dir = "$d/spool"
 TOML
-  start=$(date +%s.%N)
-  "$build/firmware-app/monomeshd" --config "$d/monomeshd.toml" 2> "$d/log" &
-  pid=$!
-  until "$build/firmware-app/monomesh" ctl ping --socket "$d/control.sock" > /dev/null 2>&1; do
-    kill -0 $pid 2> /dev/null || { cat "$d/log"; exit 1; }
-    sleep 0.005
+    start=$(date +%s.%N)
+    "$build/firmware-app/monomeshd" --config "$d/monomeshd.toml" 2> "$d/log" &
+    pid=$!
+    until "$build/firmware-app/monomesh" ctl ping --socket "$d/control.sock" > /dev/null 2>&1; do
+      kill -0 $pid 2> /dev/null || { cat "$d/log"; exit 1; }
+      sleep 0.005
+    done
+    ready=$(python3 -c "print($(date +%s.%N) - $start)")
+    "$build/firmware-app/monomesh" ctl trigger --wait 120 --socket "$d/control.sock" > "$d/result.json"
+    hwm=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
+    kill -TERM $pid; wait $pid || true
+    ok=$(grep -c '"ok": true' "$d/result.json" || true)
+    printf '%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$ok" >> "$work/footprint.tsv"
+    printf '%s: READY after %.3f s, peak RSS %d MiB, capture ok=%s\n' "$size" "$ready" $((hwm / 1024)) "$ok"
   done
-  ready=$(python3 -c "print($(date +%s.%N) - $start)")
-  "$build/firmware-app/monomesh" ctl trigger --wait 120 --socket "$d/control.sock" > "$d/result.json"
-  hwm=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
-  kill -TERM $pid; wait $pid || true
-  ok=$(grep -c '"ok": true' "$d/result.json" || true)
-  printf '%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$ok" >> "$work/footprint.tsv"
-  printf '%s: READY after %.3f s, peak RSS %d MiB, capture ok=%s\n' "$size" "$ready" $((hwm / 1024)) "$ok"
-done
+fi
+
+walk_list=keyframes_1hz.txt
+if want walk; then
+  echo "== monomesh eval --walk --every-frame on $walk_list (one thread)"
+  # Wall and CPU (user + sys, getrusage of the child) of the whole process; the JSON holds the
+  # walk's own CPU (reading the images and the walk, not the evaluation after it).
+  python3 - "$work/walk_time.txt" "$build/firmware-app/monomesh" eval --walk --every-frame \
+    --dataset "$dataset" --calib "$calib" --list "$walk_list" --threads 1 \
+    --json "$work/walk.json" --quiet <<'PY'
+import resource, subprocess, sys, time
+start = time.monotonic()
+rc = subprocess.run(sys.argv[2:]).returncode
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
+sys.exit(rc)
+PY
+  if [[ $has_colmap == 1 ]]; then
+    echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
+    d="$work/colmap_walk"
+    mkdir -p "$d/images" "$d/sparse" "$d/txt"
+    grep -v '^#' "$dataset/$walk_list" | while read -r _ file; do cp "$dataset/$file" "$d/images/"; done
+    # As the pair section (PINHOLE, intrinsics fixed, one thread, CPU SIFT) but with the mapper's
+    # own initialisation angle (16 deg; it relaxes it when no pair passes), seeded.
+    python3 - "$d" "$params" > "$d/time.txt" <<'PY'
+import resource, subprocess, sys, time
+d, params = sys.argv[1], sys.argv[2]
+cmds = [
+    ["colmap", "feature_extractor", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--ImageReader.camera_model", "PINHOLE", "--ImageReader.single_camera", "1",
+     "--ImageReader.camera_params", params,
+     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"],
+    ["colmap", "exhaustive_matcher", "--database_path", f"{d}/db.db",
+     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"],
+    ["colmap", "mapper", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
+     "--output_path", f"{d}/sparse", "--Mapper.num_threads", "1",
+     "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
+     "--Mapper.ba_refine_extra_params", "0"],
+]
+start = time.monotonic()
+with open(f"{d}/log.txt", "w") as log:
+    for c in cmds:
+        if subprocess.run(c + ["--random_seed", "17"], stdout=log,
+                          stderr=subprocess.STDOUT).returncode != 0:
+            break
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}")
+PY
+    # Every model COLMAP made, as text; walk_ate.py evaluates the largest.
+    for m in "$d"/sparse/*/; do
+      [[ -f "$m/images.bin" ]] || continue
+      t="$d/txt/$(basename "$m")"
+      mkdir -p "$t"
+      colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
+        >> "$d/log.txt" 2>&1
+    done
+    mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
+    python3 "$root/bench/walk_ate.py" --dataset "$dataset" --list "$walk_list" "${models[@]}" \
+      > "$work/colmap_walk.json"
+    read -r wall cpu < "$d/time.txt"
+    python3 - "$work/colmap_walk.json" "$wall" "$cpu" <<'PY'
+import json, sys
+c = json.load(open(sys.argv[1]))
+ate = f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE" if "ate_rmse_m" in c else "no ATE"
+print(f"COLMAP: {c['registered']}/{c['total']} registered in the largest of {c['models']} model(s), "
+      f"{ate}; {float(sys.argv[2]):.2f} s wall / {float(sys.argv[3]):.2f} s CPU")
+PY
+  else
+    echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): walk skipped"
+  fi
+fi
 
 python3 - "$work" "$out" "$colmap_ok" <<'PY'
-import json, statistics, sys
+import json, os, statistics, sys
 work, out, colmap_ok = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
-mm = json.load(open(f"{work}/monomesh.json"))
-s = mm["summary"]
-result = {"monomesh": {"summary": s,
-                       "pairs": [{"a": p["a"], "b": p["b"], "success": p["success"],
-                                  "time_s": p["time_s"]} for p in mm["pairs"]]},
-          "benchmarks": {}}
-for path in open(f"{work}/benchmarks.list").read().split():
-    data = json.load(open(path))
-    result["benchmarks"][path.rsplit("/", 1)[-1][:-5]] = [
-        {"name": b["name"], "real_time": b["real_time"], "cpu_time": b["cpu_time"],
-         "time_unit": b["time_unit"]} for b in data["benchmarks"]]
-print("\n== Summary (median per pair, one thread)")
-print(f"monomesh: two images {s['time_s']['median']:.3f} s wall / {s['time_s']['cpu_median']:.3f} s CPU; "
-      f"after B {s['time_s']['median_after_b']:.3f} s wall / {s['time_s']['cpu_median_after_b']:.3f} s CPU; "
-      f"{s['succeeded']}/{s['pairs']} pairs, rot {s['rot_err_deg']['median']:.3f} deg, "
-      f"trans {s['trans_err_deg']['median']:.3f} deg")
+result = {}
+s = None
+if os.path.exists(f"{work}/monomesh.json"):
+    mm = json.load(open(f"{work}/monomesh.json"))
+    s = mm["summary"]
+    result["monomesh"] = {"summary": s,
+                          "pairs": [{"a": p["a"], "b": p["b"], "success": p["success"],
+                                     "time_s": p["time_s"]} for p in mm["pairs"]]}
+if os.path.exists(f"{work}/benchmarks.list"):
+    result["benchmarks"] = {}
+    for path in open(f"{work}/benchmarks.list").read().split():
+        data = json.load(open(path))
+        result["benchmarks"][path.rsplit("/", 1)[-1][:-5]] = [
+            {"name": b["name"], "real_time": b["real_time"], "cpu_time": b["cpu_time"],
+             "time_unit": b["time_unit"]} for b in data["benchmarks"]]
+if s or colmap_ok:
+    print("\n== Summary (median per pair, one thread)")
+if s:
+    print(f"monomesh: two images {s['time_s']['median']:.3f} s wall / {s['time_s']['cpu_median']:.3f} s CPU; "
+          f"after B {s['time_s']['median_after_b']:.3f} s wall / {s['time_s']['cpu_median_after_b']:.3f} s CPU; "
+          f"{s['succeeded']}/{s['pairs']} pairs, rot {s['rot_err_deg']['median']:.3f} deg, "
+          f"trans {s['trans_err_deg']['median']:.3f} deg")
 if colmap_ok:
     rows = [l.split("\t") for l in open(f"{work}/colmap.tsv").read().splitlines() if l]
     wall = [float(r[1]) for r in rows]
@@ -182,14 +282,42 @@ if colmap_ok:
     result["colmap"] = {"pairs": len(rows), "reconstructed": reg,
                         "time_s": {"median": med, "cpu_median": med_cpu},
                         "per_pair_wall_s": wall, "per_pair_cpu_s": cpu}
-    ratios = {"wall_two_images": med / s["time_s"]["median"],
-              "cpu_two_images": med_cpu / s["time_s"]["cpu_median"],
-              "cpu_after_b": med_cpu / s["time_s"]["cpu_median_after_b"]}
-    result["ratio_colmap_over_monomesh"] = ratios
     print(f"COLMAP:   {med:.3f} s wall / {med_cpu:.3f} s CPU per pair "
           f"({reg}/{len(rows)} pairs reconstructed)")
-    print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
-          f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
+    if s:
+        ratios = {"wall_two_images": med / s["time_s"]["median"],
+                  "cpu_two_images": med_cpu / s["time_s"]["cpu_median"],
+                  "cpu_after_b": med_cpu / s["time_s"]["cpu_median_after_b"]}
+        result["ratio_colmap_over_monomesh"] = ratios
+        print(f"ratio COLMAP / monomesh: wall {ratios['wall_two_images']:.1f}x, "
+              f"CPU {ratios['cpu_two_images']:.1f}x (two images), CPU {ratios['cpu_after_b']:.1f}x (after B)")
+if os.path.exists(f"{work}/walk.json"):
+    # The walk: monomesh's own CPU of the walk (eval's cpu_total_s: images read and walked) and
+    # of its whole process (getrusage, with the evaluation after the walk), COLMAP's three commands.
+    w = json.load(open(f"{work}/walk.json"))["summary"]["walk"]
+    wall, cpu = (float(v) for v in open(f"{work}/walk_time.txt").read().split())
+    n = w["frames"]
+    walk = {"monomesh": {**w, "process_wall_s": wall, "process_cpu_s": cpu,
+                         "cpu_per_keyframe_s_mean": w["cpu_total_s"] / n}}
+    print(f"\n== Walk ({n} TUM keyframes, every frame a keyframe, one thread; ATE after Sim(3))")
+    print(f"monomesh: {w['registered']}/{n} registered, {w['segments']} segment(s), "
+          f"ATE {100 * w['ate_rmse_m']:.2f} cm RMSE; {w['cpu_total_s']:.2f} s CPU walk "
+          f"({1e3 * w['cpu_total_s'] / n:.0f} ms per keyframe, median "
+          f"{1e3 * w['cpu_per_keyframe_s_median']:.0f} ms), process {wall:.2f} s wall / {cpu:.2f} s CPU")
+    if os.path.exists(f"{work}/colmap_walk.json"):
+        c = json.load(open(f"{work}/colmap_walk.json"))
+        c_wall, c_cpu = (float(v) for v in open(f"{work}/colmap_walk/time.txt").read().split())
+        c.update(wall_s=c_wall, cpu_s=c_cpu, cpu_per_keyframe_s_mean=c_cpu / c["total"])
+        walk["colmap"] = c
+        ate = f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE" if "ate_rmse_m" in c else "no ATE"
+        print(f"COLMAP:   {c['registered']}/{c['total']} registered, {c['models']} model(s), {ate}; "
+              f"{c_cpu:.2f} s CPU ({c_cpu / c['total']:.2f} s per keyframe), {c_wall:.2f} s wall")
+        ratios = {"cpu_walk": c_cpu / w["cpu_total_s"], "cpu_process": c_cpu / cpu,
+                  "wall_process": c_wall / wall}
+        walk["ratio_colmap_over_monomesh"] = ratios
+        print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
+              f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
+    result["walk"] = walk
 result["daemon_footprint"] = [
     {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]), "capture_ok": r[3] == "1"}
     for r in (l.split("\t") for l in open(f"{work}/footprint.tsv").read().splitlines() if l)]
