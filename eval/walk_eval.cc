@@ -283,6 +283,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       s.map_mesh_parts = mesh.summary.parts;
       s.map_mesh_triangles = mesh.summary.triangles;
       s.map_mesh_dropped_overlap = mesh.summary.dropped_overlap;
+      s.map_mesh_dropped_free_space = mesh.summary.dropped_free_space;
       s.map_mesh_cpu_s = ThreadCpuSeconds() - mesh_start;
       Mesh world = mesh.Merged();
       const Eigen::Matrix3f sr = sim3.topLeftCorner<3, 3>().cast<float>();
@@ -380,8 +381,10 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
                     100.0 * s.map_depth_rel_err_per_view[v], 100.0 * s.map_coverage_per_view[v]);
       out += text;
     }
-    std::snprintf(text, sizeof text, "\n    triangles dropped: %d already held; %.2f s CPU\n",
-                  s.map_mesh_dropped_overlap, s.map_mesh_cpu_s);
+    std::snprintf(text, sizeof text,
+                  "\n    triangles dropped: %d seen through by other keyframes, %d already held; "
+                  "%.2f s CPU\n",
+                  s.map_mesh_dropped_free_space, s.map_mesh_dropped_overlap, s.map_mesh_cpu_s);
     out += text;
   }
   return out;
@@ -422,6 +425,7 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                 {{"parts", s.map_mesh_parts},
                  {"triangles", s.map_mesh_triangles},
                  {"dropped_overlap", s.map_mesh_dropped_overlap},
+                 {"dropped_free_space", s.map_mesh_dropped_free_space},
                  {"cpu_s", s.map_mesh_cpu_s}}}};
   json keyframes = json::array();
   for (const WalkKeyframeEval& k : result.keyframes) {

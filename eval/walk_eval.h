@@ -93,8 +93,9 @@ struct WalkEvalSummary {
   std::vector<double> map_coverage_per_view;
   int map_mesh_parts = 0;
   int map_mesh_triangles = 0;
-  int map_mesh_dropped_overlap = 0;  ///< WalkMeshSummary::dropped_overlap.
-  double map_mesh_cpu_s = 0.0;       ///< Thread CPU time of BuildWalkMesh.
+  int map_mesh_dropped_overlap = 0;     ///< WalkMeshSummary::dropped_overlap.
+  int map_mesh_dropped_free_space = 0;  ///< WalkMeshSummary::dropped_free_space.
+  double map_mesh_cpu_s = 0.0;          ///< Thread CPU time of BuildWalkMesh.
 };
 
 struct WalkEvalResult {
