@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <optional>
 
@@ -23,6 +24,14 @@ bool SeenBy(const DepthView& view, const Eigen::Matrix3d& K, int width, int heig
   const double inverse_depth = InverseDepthAt(*view.depth, u, v);
   if (inverse_depth <= 0) return false;
   return std::abs(x.z() * inverse_depth - 1.0) <= rel;
+}
+
+// The depth uncertainty of `view` at `x_segment`: its sweep's plane spacing in inverse depth
+// times z^2 (a plane sweep resolves inverse depth evenly), infinite without a depth.
+double DepthSigma(const DepthView& view, const Eigen::Vector3d& x_segment) {
+  if (!view.depth) return std::numeric_limits<double>::infinity();
+  const double z = (view.cam_from_segment * x_segment).z();
+  return z * z * view.depth->inverse_depth_step;
 }
 
 Eigen::Vector3d CentroidOf(const Mesh& mesh, size_t t) {
@@ -332,15 +341,20 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
   for (size_t p = 0; p < parts.size(); ++p) {
     if (views[p].depth) views[p].depth->inverse_depth = HeldInverseDepth(parts[p].mesh, views[p]);
   }
-  // Pass 3, redundancy: drop what an earlier part already holds.
+  // Pass 3, redundancy: a surface that several parts within `overlap_parts` of each other
+  // hold is kept by the one that measured it most precisely (the earlier on a tie).
+  const size_t window = static_cast<size_t>(options.overlap_parts);
   for (size_t p = 0; p < parts.size(); ++p) {
     WalkMeshPart& part = parts[p];
-    const size_t first = p > static_cast<size_t>(options.overlap_parts)
-                             ? p - static_cast<size_t>(options.overlap_parts)
-                             : 0;
-    for (size_t t = 0; t < keep[p].size() && first < p; ++t) {
+    const size_t first = p > window ? p - window : 0;
+    const size_t last = std::min(p + window, parts.size() - 1);
+    for (size_t t = 0; t < keep[p].size() && first < last; ++t) {
       const Eigen::Vector3d centroid = CentroidOf(part.mesh, t);
-      for (size_t q = first; q < p; ++q) {
+      const double own = DepthSigma(views[p], centroid);
+      for (size_t q = first; q <= last; ++q) {
+        if (q == p) continue;
+        const double other = DepthSigma(views[q], centroid);
+        if (other > own || (other == own && q > p)) continue;
         if (SeenBy(views[q], K, width, height, centroid, options.overlap_depth_rel)) {
           keep[p][t] = 0;
           ++part.dropped_overlap;

@@ -15,10 +15,13 @@
 // keyframe saw at a slant or triangles bridging into a far end, which stand in front of the
 // true surface in the views of other keyframes.
 // Then merging (the mesh-merging alternative to volumetric fusion, in the sense of Turk &
-// Levoy 1994's redundancy removal): a triangle of a later part is dropped when its centroid
-// lies on the depth of what one of the `overlap_parts` parts before it kept (within
-// `overlap_depth_rel`), seen from that part's keyframe: a surface is kept once, from the
-// keyframe that saw it first. Each part keeps its UVs into its own keyframe image.
+// Levoy 1994's redundancy removal): a part's triangle is dropped when its centroid lies on
+// the depth of what another part within `overlap_parts` kept (within `overlap_depth_rel`),
+// seen from that part's keyframe, and that keyframe measured it more precisely (a smaller
+// depth uncertainty z^2 times its sweep's inverse-depth plane spacing; the earlier part on a
+// tie): a surface is kept once, from the keyframe that saw it best, as Curless & Levoy weigh
+// their fusion. A corridor's far end, coarse from the first keyframe, is kept from the
+// keyframes that walked up to it. Each part keeps its UVs into its own keyframe image.
 //
 // Thread-safety: pure functions; reentrant.
 
@@ -46,8 +49,8 @@ struct WalkMeshOptions {
   /// A keyframe gets a part when the last part's keyframe observes at most this share of the
   /// keyframe's map points.
   double max_shared_points = 0.5;
-  int max_parts = 64;  ///< More candidates: every n-th is taken, evenly along the walk.
-  int overlap_parts = 8;
+  int max_parts = 64;     ///< More candidates: every n-th is taken, evenly along the walk.
+  int overlap_parts = 8;  ///< Parts before and after a part that can hold its surfaces.
   double overlap_depth_rel = 0.05;
   /// Free-space carving: a triangle is dropped when at least this many other parts'
   /// keyframes see through it (0: off). One suffices: the test is conservative (the view's
@@ -66,7 +69,7 @@ struct WalkMeshPart {
   int keyframe = 0;  ///< Its texture is this keyframe's image.
   Mesh mesh;         ///< Vertices in the segment's frame, UVs into the keyframe image, colours.
   bool dense = false;
-  int dropped_overlap = 0;     ///< Triangles dropped as already in an earlier part.
+  int dropped_overlap = 0;     ///< Triangles another part holds more precisely.
   int dropped_free_space = 0;  ///< Triangles other keyframes see through.
 };
 
