@@ -268,6 +268,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     }
     if (options.map_depth_views > 0) {
       // The map mesh, from the keyframes' own images, into the ground truth's frame.
+      const double mesh_start = ThreadCpuSeconds();
       const WalkMesh mesh = BuildWalkMesh(
           *map, s.evaluated_segment, k_matrix,
           [&](int index) {
@@ -281,6 +282,9 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
           options.mesh);
       s.map_mesh_parts = mesh.summary.parts;
       s.map_mesh_triangles = mesh.summary.triangles;
+      s.map_mesh_dropped_overlap = mesh.summary.dropped_overlap;
+      s.map_mesh_dropped_free_space = mesh.summary.dropped_free_space;
+      s.map_mesh_cpu_s = ThreadCpuSeconds() - mesh_start;
       Mesh world = mesh.Merged();
       const Eigen::Matrix3f sr = sim3.topLeftCorner<3, 3>().cast<float>();
       const Eigen::Vector3f st = sim3.topRightCorner<3, 1>().cast<float>();
@@ -308,6 +312,8 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
         const MeshDepthEval e = EvaluateMeshDepth(renderer, world, view, depth_m, 1.0);
         if (!e.success || e.covered_pixels == 0) continue;
         medians.push_back(e.median_rel_err);
+        s.map_depth_rel_err_per_view.push_back(e.median_rel_err);
+        s.map_coverage_per_view.push_back(e.coverage);
         s.map_depth_rel_err_p90_max = std::max(s.map_depth_rel_err_p90_max, e.p90_rel_err);
         coverage += e.coverage;
       }
@@ -369,6 +375,17 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
                   100.0 * s.map_depth_rel_err_median, 100.0 * s.map_depth_rel_err_max_median,
                   100.0 * s.map_depth_rel_err_p90_max, 100.0 * s.map_coverage_mean);
     out += text;
+    out += "    per view:";
+    for (size_t v = 0; v < s.map_depth_rel_err_per_view.size(); ++v) {
+      std::snprintf(text, sizeof text, " %.2f %% (coverage %.0f %%)",
+                    100.0 * s.map_depth_rel_err_per_view[v], 100.0 * s.map_coverage_per_view[v]);
+      out += text;
+    }
+    std::snprintf(text, sizeof text,
+                  "\n    triangles dropped: %d seen through by other keyframes, %d already held; "
+                  "%.2f s CPU\n",
+                  s.map_mesh_dropped_free_space, s.map_mesh_dropped_overlap, s.map_mesh_cpu_s);
+    out += text;
   }
   return out;
 }
@@ -401,8 +418,15 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                  {"max_median", s.map_depth_rel_err_max_median},
                  {"p90_max", s.map_depth_rel_err_p90_max},
                  {"views", s.map_depth_views},
-                 {"coverage_mean", s.map_coverage_mean}}},
-               {"map_mesh", {{"parts", s.map_mesh_parts}, {"triangles", s.map_mesh_triangles}}}};
+                 {"coverage_mean", s.map_coverage_mean},
+                 {"per_view", s.map_depth_rel_err_per_view},
+                 {"coverage_per_view", s.map_coverage_per_view}}},
+               {"map_mesh",
+                {{"parts", s.map_mesh_parts},
+                 {"triangles", s.map_mesh_triangles},
+                 {"dropped_overlap", s.map_mesh_dropped_overlap},
+                 {"dropped_free_space", s.map_mesh_dropped_free_space},
+                 {"cpu_s", s.map_mesh_cpu_s}}}};
   json keyframes = json::array();
   for (const WalkKeyframeEval& k : result.keyframes) {
     keyframes.push_back(

@@ -89,8 +89,13 @@ struct WalkEvalSummary {
   double map_depth_rel_err_max_median = 0.0;
   double map_depth_rel_err_p90_max = 0.0;
   double map_coverage_mean = 0.0;
+  std::vector<double> map_depth_rel_err_per_view;  ///< Each view's median, along the path.
+  std::vector<double> map_coverage_per_view;
   int map_mesh_parts = 0;
   int map_mesh_triangles = 0;
+  int map_mesh_dropped_overlap = 0;     ///< WalkMeshSummary::dropped_overlap.
+  int map_mesh_dropped_free_space = 0;  ///< WalkMeshSummary::dropped_free_space.
+  double map_mesh_cpu_s = 0.0;          ///< Thread CPU time of BuildWalkMesh.
 };
 
 struct WalkEvalResult {

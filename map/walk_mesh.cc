@@ -5,20 +5,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <optional>
 
 namespace mm {
 namespace {
 
-// A part's keyframe as later parts see it: pose and dense depth (when the part is dense).
-struct PartView {
-  Eigen::Isometry3d cam_from_segment;
-  std::optional<DenseDepth> depth;
-};
-
 // Whether `x_segment` lies on the surface `view` saw (within `rel` in depth).
-bool SeenBy(const PartView& view, const Eigen::Matrix3d& K, int width, int height,
+bool SeenBy(const DepthView& view, const Eigen::Matrix3d& K, int width, int height,
             const Eigen::Vector3d& x_segment, double rel) {
   if (!view.depth) return false;
   const Eigen::Vector3d x = view.cam_from_segment * x_segment;
@@ -29,6 +24,22 @@ bool SeenBy(const PartView& view, const Eigen::Matrix3d& K, int width, int heigh
   const double inverse_depth = InverseDepthAt(*view.depth, u, v);
   if (inverse_depth <= 0) return false;
   return std::abs(x.z() * inverse_depth - 1.0) <= rel;
+}
+
+// The depth uncertainty of `view` at `x_segment`: its sweep's plane spacing in inverse depth
+// times z^2 (a plane sweep resolves inverse depth evenly), infinite without a depth.
+double DepthSigma(const DepthView& view, const Eigen::Vector3d& x_segment) {
+  if (!view.depth) return std::numeric_limits<double>::infinity();
+  const double z = (view.cam_from_segment * x_segment).z();
+  return z * z * view.depth->inverse_depth_step;
+}
+
+Eigen::Vector3d CentroidOf(const Mesh& mesh, size_t t) {
+  const Eigen::Vector3i& tri = mesh.triangles[t];
+  return ((mesh.vertices[static_cast<size_t>(tri[0])] + mesh.vertices[static_cast<size_t>(tri[1])] +
+           mesh.vertices[static_cast<size_t>(tri[2])]) /
+          3.0f)
+      .cast<double>();
 }
 
 // Keeps the triangles flagged and the vertices they use.
@@ -53,6 +64,73 @@ void KeepTriangles(const std::vector<char>& keep, Mesh* mesh) {
   *mesh = std::move(out);
 }
 
+// The vertices in a view's image through `K`: pixel and inverse depth (0 behind the camera).
+std::vector<Eigen::Vector3d> ProjectVertices(const Mesh& mesh,
+                                             const Eigen::Isometry3d& cam_from_segment,
+                                             const Eigen::Matrix3d& K) {
+  std::vector<Eigen::Vector3d> projected(mesh.vertices.size(), Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Eigen::Vector3d x = cam_from_segment * mesh.vertices[i].cast<double>();
+    if (x.z() <= 0) continue;
+    const Eigen::Vector3d p = K * x;
+    projected[i] = Eigen::Vector3d(p.x() / p.z(), p.y() / p.z(), 1.0 / x.z());
+  }
+  return projected;
+}
+
+// Calls on_pixel(x, y, inverse depth) at the pixel centres of a cols x rows image inside the
+// triangle (at its centroid's pixel when it covers none) until it returns true, and returns
+// whether it did. The inverse depth of a plane is affine in the image: the triangle's is the
+// barycentric blend of its corners'. A triangle crossing the camera plane is skipped.
+template <typename OnPixel>
+bool RasterizeTriangle(const std::vector<Eigen::Vector3d>& projected, const Eigen::Vector3i& tri,
+                       int cols, int rows, OnPixel&& on_pixel) {
+  const Eigen::Vector3d& a = projected[static_cast<size_t>(tri[0])];
+  const Eigen::Vector3d& b = projected[static_cast<size_t>(tri[1])];
+  const Eigen::Vector3d& c = projected[static_cast<size_t>(tri[2])];
+  if (a.z() <= 0 || b.z() <= 0 || c.z() <= 0) return false;
+  const double area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+  bool covers_a_pixel = false;
+  if (std::abs(area) > 1e-12) {
+    const int x0 = std::max(0, static_cast<int>(std::ceil(std::min({a.x(), b.x(), c.x()}))));
+    const int x1 =
+        std::min(cols - 1, static_cast<int>(std::floor(std::max({a.x(), b.x(), c.x()}))));
+    const int y0 = std::max(0, static_cast<int>(std::ceil(std::min({a.y(), b.y(), c.y()}))));
+    const int y1 =
+        std::min(rows - 1, static_cast<int>(std::floor(std::max({a.y(), b.y(), c.y()}))));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        const double wa = ((b.x() - x) * (c.y() - y) - (b.y() - y) * (c.x() - x)) / area;
+        const double wb = ((c.x() - x) * (a.y() - y) - (c.y() - y) * (a.x() - x)) / area;
+        const double wc = 1.0 - wa - wb;
+        if (wa < 0 || wb < 0 || wc < 0) continue;
+        covers_a_pixel = true;
+        if (on_pixel(x, y, wa * a.z() + wb * b.z() + wc * c.z())) return true;
+      }
+    }
+  }
+  if (covers_a_pixel) return false;
+  const Eigen::Vector3d m = (a + b + c) / 3.0;
+  const int u = static_cast<int>(std::lround(m.x())), v = static_cast<int>(std::lround(m.y()));
+  return u >= 0 && v >= 0 && u < cols && v < rows && on_pixel(u, v, m.z());
+}
+
+// The inverse depth of `mesh` (segment frame) in `view`'s shrunk image, nearest surface first:
+// what the part holds, for the redundancy test.
+cv::Mat HeldInverseDepth(const Mesh& mesh, const DepthView& view) {
+  const DenseDepth& d = *view.depth;
+  cv::Mat held(d.inverse_depth.size(), CV_32FC1, cv::Scalar(0));
+  const std::vector<Eigen::Vector3d> projected = ProjectVertices(mesh, view.cam_from_segment, d.K);
+  for (const Eigen::Vector3i& tri : mesh.triangles) {
+    RasterizeTriangle(projected, tri, held.cols, held.rows, [&](int x, int y, double rho) {
+      float& h = held.at<float>(y, x);
+      h = std::max(h, static_cast<float>(rho));
+      return false;
+    });
+  }
+  return held;
+}
+
 }  // namespace
 
 std::string WalkMeshOptions::Check() const {
@@ -65,7 +143,43 @@ std::string WalkMeshOptions::Check() const {
   if (max_parts < 1) return "max_parts: must be >= 1";
   if (overlap_parts < 0) return "overlap_parts: must be >= 0";
   if (!(overlap_depth_rel >= 0)) return "overlap_depth_rel: must be >= 0";
+  if (free_space_min_views < 0) return "free_space_min_views: must be >= 0";
+  if (!(free_space_depth_rel >= 0)) return "free_space_depth_rel: must be >= 0";
+  if (!(free_space_noise_planes >= 0)) return "free_space_noise_planes: must be >= 0";
   return {};
+}
+
+std::vector<std::vector<int>> FreeSpaceViolations(std::span<const Mesh* const> meshes,
+                                                  std::span<const DepthView> views,
+                                                  const WalkMeshOptions& options) {
+  std::vector<std::vector<int>> violations(meshes.size());
+  for (size_t p = 0; p < meshes.size(); ++p) violations[p].assign(meshes[p]->triangles.size(), 0);
+  for (size_t q = 0; q < views.size(); ++q) {
+    if (!views[q].depth) continue;
+    const DenseDepth& d = *views[q].depth;
+    // The view's nearest depth around each pixel (the largest inverse depth of the 3x3
+    // window): a depth edge or a pixel of pose error never reads as seeing through.
+    cv::Mat nearest;
+    cv::dilate(d.inverse_depth, nearest, cv::Mat());
+    const double margin = options.free_space_noise_planes * d.inverse_depth_step;
+    const auto sees_through = [&](int x, int y, double rho) {
+      const float n = nearest.at<float>(y, x);
+      return n > 0 && rho > n * (1.0 + options.free_space_depth_rel) + margin;
+    };
+    for (size_t p = 0; p < meshes.size(); ++p) {
+      if (p == q) continue;
+      const Mesh& mesh = *meshes[p];
+      const std::vector<Eigen::Vector3d> projected =
+          ProjectVertices(mesh, views[q].cam_from_segment, d.K);
+      for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+        if (RasterizeTriangle(projected, mesh.triangles[t], nearest.cols, nearest.rows,
+                              sees_through)) {
+          ++violations[p][t];
+        }
+      }
+    }
+  }
+  return violations;
 }
 
 Mesh WalkMesh::Merged() const {
@@ -146,11 +260,15 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
     chosen = even;
   }
 
-  std::vector<PartView> views;
+  // Pass 1: every part's mesh (in the segment's frame) and its keyframe's depth.
+  std::vector<WalkMeshPart> parts;
+  std::vector<DepthView> views;
+  int width = 0, height = 0;
   for (int k : chosen) {
     const WalkKeyframe& keyframe = keyframes[static_cast<size_t>(k)];
     const cv::Mat image = image_of(k);
     if (image.empty()) continue;
+    width = image.cols, height = image.rows;
     cv::Mat gray;
     cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
     std::vector<Eigen::Vector3d> points_in_cam;
@@ -160,7 +278,7 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
     }
     WalkMeshPart part;
     part.keyframe = k;
-    PartView view{keyframe.cam_from_segment, std::nullopt};
+    DepthView view{keyframe.cam_from_segment, std::nullopt};
     if (options.dense) {
       // The stereo partner: the keyframe before it in the segment (after it for the first).
       const auto it = std::find(members.begin(), members.end(), k);
@@ -179,7 +297,10 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
         if (depth.success) {
           part.mesh = BuildDenseMesh(depth, K, image.cols, image.rows, options.dense_mesh);
           part.dense = !part.mesh.triangles.empty();
-          if (part.dense) view.depth = std::move(depth);
+          if (part.dense) {
+            depth.confidence.release();  // Only the inverse depth is read from here on.
+            view.depth = std::move(depth);
+          }
         }
       }
     }
@@ -190,31 +311,60 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
     // Into the segment's frame.
     const Eigen::Isometry3f segment_from_cam = keyframe.cam_from_segment.inverse().cast<float>();
     for (Eigen::Vector3f& v : part.mesh.vertices) v = segment_from_cam * v;
-    // Drop what an earlier part already holds.
-    if (options.overlap_parts > 0 && !views.empty()) {
-      std::vector<char> keep(part.mesh.triangles.size(), 1);
-      const size_t first = views.size() > static_cast<size_t>(options.overlap_parts)
-                               ? views.size() - static_cast<size_t>(options.overlap_parts)
-                               : 0;
-      for (size_t t = 0; t < part.mesh.triangles.size(); ++t) {
-        const Eigen::Vector3i& tri = part.mesh.triangles[t];
-        const Eigen::Vector3d centroid = ((part.mesh.vertices[static_cast<size_t>(tri[0])] +
-                                           part.mesh.vertices[static_cast<size_t>(tri[1])] +
-                                           part.mesh.vertices[static_cast<size_t>(tri[2])]) /
-                                          3.0f)
-                                             .cast<double>();
-        for (size_t q = first; q < views.size(); ++q) {
-          if (SeenBy(views[q], K, image.cols, image.rows, centroid, options.overlap_depth_rel)) {
-            keep[t] = 0;
-            ++part.dropped_overlap;
-            break;
-          }
+    parts.push_back(std::move(part));
+    views.push_back(std::move(view));
+  }
+
+  // Pass 2, visibility: every part's triangles against every other part's depth.
+  std::vector<std::vector<char>> keep(parts.size());
+  std::vector<const Mesh*> meshes;
+  for (size_t p = 0; p < parts.size(); ++p) {
+    keep[p].assign(parts[p].mesh.triangles.size(), 1);
+    meshes.push_back(&parts[p].mesh);
+  }
+  if (options.free_space_min_views > 0) {
+    const std::vector<std::vector<int>> violations = FreeSpaceViolations(meshes, views, options);
+    for (size_t p = 0; p < parts.size(); ++p) {
+      for (size_t t = 0; t < violations[p].size(); ++t) {
+        if (violations[p][t] >= options.free_space_min_views) {
+          keep[p][t] = 0;
+          ++parts[p].dropped_free_space;
         }
       }
-      if (part.dropped_overlap > 0) KeepTriangles(keep, &part.mesh);
+      if (parts[p].dropped_free_space == 0) continue;
+      KeepTriangles(keep[p], &parts[p].mesh);
+      keep[p].assign(parts[p].mesh.triangles.size(), 1);
     }
-    views.push_back(std::move(view));
+  }
+  // What a part holds from here on: the depth of the triangles it kept (not its keyframe's
+  // depth map, which also has the surfaces its mesh dropped or never had).
+  for (size_t p = 0; p < parts.size(); ++p) {
+    if (views[p].depth) views[p].depth->inverse_depth = HeldInverseDepth(parts[p].mesh, views[p]);
+  }
+  // Pass 3, redundancy: a surface that several parts within `overlap_parts` of each other
+  // hold is kept by the one that measured it most precisely (the earlier on a tie).
+  const size_t window = static_cast<size_t>(options.overlap_parts);
+  for (size_t p = 0; p < parts.size(); ++p) {
+    WalkMeshPart& part = parts[p];
+    const size_t first = p > window ? p - window : 0;
+    const size_t last = std::min(p + window, parts.size() - 1);
+    for (size_t t = 0; t < keep[p].size() && first < last; ++t) {
+      const Eigen::Vector3d centroid = CentroidOf(part.mesh, t);
+      const double own = DepthSigma(views[p], centroid);
+      for (size_t q = first; q <= last; ++q) {
+        if (q == p) continue;
+        const double other = DepthSigma(views[q], centroid);
+        if (other > own || (other == own && q > p)) continue;
+        if (SeenBy(views[q], K, width, height, centroid, options.overlap_depth_rel)) {
+          keep[p][t] = 0;
+          ++part.dropped_overlap;
+          break;
+        }
+      }
+    }
+    if (part.dropped_overlap > 0) KeepTriangles(keep[p], &part.mesh);
     s.dropped_overlap += part.dropped_overlap;
+    s.dropped_free_space += part.dropped_free_space;
     if (part.mesh.triangles.empty()) continue;
     ++(part.dense ? s.dense_parts : s.sparse_parts);
     s.vertices += static_cast<int>(part.mesh.vertices.size());

@@ -81,6 +81,15 @@ TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   EXPECT_EQ(depth["keyframes"].get<int>(), w["keyframes"].get<int>());
   EXPECT_LE(depth["median"].get<double>(), 0.01);
   EXPECT_LE(depth["p90"].get<double>(), 0.05);
+  // The map mesh against the depth rendered from 5 ground-truth poses along the path (issue
+  // bound: median <= 2 %): measured median 0.54 % (views 0.61, 0.54, 0.36, 0.39, 1.01 %),
+  // coverage 91 %. Without free-space carving the view at the corner was 23.8 % off.
+  const json& map_depth = w["map_depth_rel_err"];
+  EXPECT_EQ(map_depth["views"].get<int>(), 5);
+  EXPECT_LE(map_depth["median"].get<double>(), 0.008);
+  EXPECT_LE(map_depth["max_median"].get<double>(), 0.015);
+  EXPECT_GE(map_depth["coverage_mean"].get<double>(), 0.85);
+  EXPECT_GT(w["map_mesh"]["dropped_free_space"].get<int>(), 0);
   fs::remove_all(dir);
 }
 
