@@ -236,7 +236,9 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       p.has_scale = true;
       ScaleInputs in;
       in.baseline_units = r.geometry.translation.norm();
-      in.points_in_a = r.geometry.points_in_cam_a;
+      in.points_in_a = r.SurfacePointsInA();
+      in.gray_a = ToGray(image_a);
+      in.K = used->K();
       if (wa && wb) {
         // The robot's odometry, simulated: the true camera centres with noise.
         std::mt19937 rng(options.odom_seed + static_cast<uint32_t>(p.index_a));

@@ -84,9 +84,18 @@ struct PairReconstruction {
   MeshSummary mesh_summary;             ///< The sparse mesh's (when it was built).
   DenseMeshSummary dense_mesh_summary;  ///< The dense mesh's.
   double dense_valid_fraction = 0;      ///< Share of A (shrunk) with a dense depth.
+  /// The dense depth as points in A's frame, every 4th pixel of the shrunk map each way.
+  std::vector<Eigen::Vector3d> dense_points_in_a;
   int dense_planes = 0;
   std::string dense_failure_reason;
   StageTimes times;
+
+  /// The scene's surfaces as points in A's frame: the dense depth's when there is one (the
+  /// floor fit of scale/ gets thousands of floor points, not tens), else the sparse points.
+  [[nodiscard]] std::span<const Eigen::Vector3d> SurfacePointsInA() const {
+    return dense_points_in_a.empty() ? std::span<const Eigen::Vector3d>(geometry.points_in_cam_a)
+                                     : std::span<const Eigen::Vector3d>(dense_points_in_a);
+  }
 };
 
 /// Reconstructs a pair of undistorted frames (BGR8 or GRAY8) seen through `camera` (no

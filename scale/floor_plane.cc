@@ -45,15 +45,42 @@ std::vector<int> Inliers(std::span<const Eigen::Vector3d> points, const Eigen::V
   return inliers;
 }
 
+// The camera's height over the plane through the inliers with the normal held at `up`: the
+// mean of their heights (least squares along the normal).
+bool RefitDistance(std::span<const Eigen::Vector3d> points, const std::vector<int>& inliers,
+                   const Eigen::Vector3d& up, Plane* plane) {
+  if (inliers.empty()) return false;
+  double sum = 0.0;
+  for (int i : inliers) sum -= up.dot(points[i]);
+  plane->normal = up;
+  plane->distance = sum / static_cast<double>(inliers.size());
+  return true;
+}
+
+FloorPlane Fit(std::span<const Eigen::Vector3d> points_in_cam, const Eigen::Vector3d& up_in_cam,
+               const FloorPlaneOptions& options, bool normal_known);
+
 }  // namespace
+
+FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
+                         const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options) {
+  return Fit(points_in_cam, up_in_cam, options, /*normal_known=*/false);
+}
+
+FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
+                              const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options) {
+  return Fit(points_in_cam, up_in_cam, options, /*normal_known=*/true);
+}
 
 Eigen::Vector3d UpInCamera(double pitch_down_deg) {
   const double p = pitch_down_deg * kPi / 180.0;
   return {0.0, -std::cos(p), -std::sin(p)};
 }
 
-FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
-                         const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options) {
+namespace {
+
+FloorPlane Fit(std::span<const Eigen::Vector3d> points_in_cam, const Eigen::Vector3d& up_in_cam,
+               const FloorPlaneOptions& options, bool normal_known) {
   FloorPlane out;
   const int n = static_cast<int>(points_in_cam.size());
   if (n < std::max(3, options.min_inliers)) {
@@ -77,18 +104,28 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
   // Hypotheses that are horizontal, below the camera and supported; duplicates of one plane
   // are many, which the selection below does not mind.
   std::vector<Plane> candidates;
+  // A floor closer to the camera than this is no floor (points at the camera centre: a
+  // degenerate plane through them would make the scale unbounded).
+  std::vector<double> depths;
+  depths.reserve(below.size());
+  for (int i : below) depths.push_back(points_in_cam[i].norm());
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  const double min_distance = options.min_distance_rel * depths[depths.size() / 2];
   for (int it = 0; it < options.iterations; ++it) {
-    const int i = below[pick(rng)], j = below[pick(rng)], k = below[pick(rng)];
-    if (i == j || j == k || i == k) continue;
-    Eigen::Vector3d normal =
-        (points_in_cam[j] - points_in_cam[i]).cross(points_in_cam[k] - points_in_cam[i]);
-    const double norm = normal.norm();
-    if (!(norm > 0)) continue;
-    normal /= norm;
-    if (normal.dot(up) < 0) normal = -normal;
-    if (normal.dot(up) < cos_max) continue;
+    Eigen::Vector3d normal = up;  // Known: one point fixes the plane.
+    const int i = below[pick(rng)];
+    if (!normal_known) {
+      const int j = below[pick(rng)], k = below[pick(rng)];
+      if (i == j || j == k || i == k) continue;
+      normal = (points_in_cam[j] - points_in_cam[i]).cross(points_in_cam[k] - points_in_cam[i]);
+      const double norm = normal.norm();
+      if (!(norm > 0)) continue;
+      normal /= norm;
+      if (normal.dot(up) < 0) normal = -normal;
+      if (normal.dot(up) < cos_max) continue;
+    }
     const double d = -normal.dot(points_in_cam[i]);
-    if (!(d > 0)) continue;  // The camera is not above it.
+    if (!(d > min_distance)) continue;  // The camera is not above it.
     const int support =
         static_cast<int>(Inliers(points_in_cam, normal, d, options.inlier_distance_rel * d).size());
     if (support >= options.min_inliers) candidates.push_back({normal, d, support});
@@ -123,7 +160,9 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
     inliers = Inliers(points_in_cam, plane.normal, plane.distance,
                       options.inlier_distance_rel * plane.distance);
     Plane refined;
-    if (!Refit(points_in_cam, inliers, up, &refined) || !(refined.distance > 0) ||
+    const bool refitted = normal_known ? RefitDistance(points_in_cam, inliers, up, &refined)
+                                       : Refit(points_in_cam, inliers, up, &refined);
+    if (!refitted || !(refined.distance > min_distance) ||
         refined.normal.dot(up) < cos_max) {
       break;
     }
@@ -146,5 +185,7 @@ FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
   out.normal_angle_deg = std::acos(std::clamp(plane.normal.dot(up), -1.0, 1.0)) * 180.0 / kPi;
   return out;
 }
+
+}  // namespace
 
 }  // namespace mm

@@ -32,6 +32,9 @@ struct FloorPlaneOptions {
   /// room's points: at 10 % of them, 2000 samples hit it about twice).
   int iterations = 2000;
   uint32_t seed = 1;
+  /// A plane closer to the camera than this share of the median depth of the points below it
+  /// is not a floor (dense points at the camera centre would hold a plane through it).
+  double min_distance_rel = 0.02;
 };
 
 struct FloorPlane {
@@ -50,6 +53,14 @@ struct FloorPlane {
 /// `up_in_cam`: the expected up direction in that frame (e.g. UpInCamera(pitch)).
 FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
                          const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options = {});
+
+/// As FitFloorPlane with the normal known to be `up_in_cam` (e.g. from the image's vertical
+/// vanishing point, scale/vertical_vanishing_point.h): one point fixes a hypothesis, and the
+/// inliers refine only the distance. For a floor seen as a shallow strip, whose own points fix
+/// its pitch poorly.
+FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
+                              const Eigen::Vector3d& up_in_cam,
+                              const FloorPlaneOptions& options = {});
 
 /// World up in the frame of a camera pitched down by `pitch_down_deg` about its x axis (no
 /// roll): (0, -cos p, -sin p); a level camera's up is -y.

@@ -89,8 +89,16 @@ ScaleEstimate EstimateScale(const ScaleInputs& inputs, const ScaleOptions& optio
   }
   double floor_sigma = 0.0;
   if (want_floor) {
-    out.floor =
-        FitFloorPlane(inputs.points_in_a, UpInCamera(options.camera_pitch_deg), options.floor);
+    // The up direction from the image's vertical lines when they show it; else the floor's
+    // own points fix its normal near the mount's nominal up.
+    const Eigen::Vector3d nominal_up = UpInCamera(options.camera_pitch_deg);
+    if (!inputs.gray_a.empty()) {
+      out.vertical = EstimateVerticalVanishingPoint(inputs.gray_a, inputs.K, nominal_up,
+                                                    options.vertical);
+    }
+    out.floor = out.vertical.found
+                    ? FitFloorPlaneAlong(inputs.points_in_a, out.vertical.up_in_cam, options.floor)
+                    : FitFloorPlane(inputs.points_in_a, nominal_up, options.floor);
     if (!out.floor.found) {
       if (options.source != ScaleSource::kOdometry)
         AppendWhy(&out.why_not, "floor: " + out.floor.why_not);

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "scale/floor_plane.h"
+#include "scale/vertical_vanishing_point.h"
 
 namespace mm {
 
@@ -36,6 +37,7 @@ struct ScaleOptions {
   /// Odometry and floor both at hand and further apart than this (relative): no scale.
   double max_disagreement_rel = 0.2;
   FloorPlaneOptions floor;
+  VerticalVanishingOptions vertical;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -47,6 +49,10 @@ struct ScaleInputs {
   std::string odometry_why_not;
   double baseline_units = 1.0;                   ///< |c_B - c_A| in the reconstruction.
   std::span<const Eigen::Vector3d> points_in_a;  ///< Units of the reconstruction.
+  /// Keyframe A (undistorted, 8-bit grey) and its camera matrix, for the up direction from
+  /// its vertical lines (floor source); empty: the floor's points alone fix its normal.
+  cv::Mat gray_a;
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
 };
 
 struct ScaleEstimate {
@@ -58,6 +64,8 @@ struct ScaleEstimate {
   double odometry_metres_per_unit = 0.0;
   double floor_metres_per_unit = 0.0;
   FloorPlane floor;
+  /// The up direction from A's vertical lines (floor source; when found, the floor's normal).
+  VerticalVanishingPoint vertical;
   [[nodiscard]] bool scaled() const { return source != ScaleSource::kNone; }
 };
 

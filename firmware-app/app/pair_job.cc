@@ -22,7 +22,9 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                             .odometry_b_m = scale.odometry_b_m,
                             .odometry_why_not = scale.odometry_why_not,
                             .baseline_units = out.recon.geometry.translation.norm(),
-                            .points_in_a = out.recon.geometry.points_in_cam_a},
+                            .points_in_a = out.recon.SurfacePointsInA(),
+                            .gray_a = ToGray(image_a),
+                            .K = camera.K()},
                            scale.options);
     if (metric.scaled()) ScalePairReconstruction(metric.metres_per_unit, &out.recon);
   }

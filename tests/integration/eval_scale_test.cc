@@ -83,11 +83,13 @@ TEST(EvalScale, SynthCorridorWalkFromTheFloorAtEyeHeight) {
   const json& s = r["summary"]["scale"];
   std::cout << "[ figures  ] walk, floor at 1.6 m: " << s.dump() << "\n";
   EXPECT_GE(s["pairs"].get<int>(), 0.9 * s["asked"].get<int>());
-  // Measured 22 of 23 pairs scaled, median 8.4 %, p90 31 %: short of the targets (median 2 %,
-  // p90 5 %). The floor in view is 4-9 m ahead of a level camera, where a 1/3 m baseline puts
-  // centimetres of noise on the points (docs/scale.md); these bounds hold the measured figures.
-  EXPECT_LE(s["rel_err_median"].get<double>(), 0.12);
-  EXPECT_LE(s["rel_err_p90"].get<double>(), 0.45);
+  // Measured 22 of 23 pairs scaled, median 2.6 %, p90 22.7 % with the up direction from the
+  // image's vertical lines and the dense depth's floor points (8.4 % / 31 % from the sparse
+  // points' own plane): short of the targets (median 2 %, p90 5 %). The pairs facing the
+  // corridor's end wall at the corner show too few vertical edges and fall back to the floor
+  // strip's own plane (docs/scale.md); these bounds hold the measured figures.
+  EXPECT_LE(s["rel_err_median"].get<double>(), 0.04);
+  EXPECT_LE(s["rel_err_p90"].get<double>(), 0.30);
   fs::remove_all(dir);
 }
 
