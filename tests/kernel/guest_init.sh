@@ -1,7 +1,7 @@
 #!/bin/busybox sh
 # /init of the qemu guest of tests/kernel/run.sh: loads the drivers, runs the checks in order
 # (v4l2loopback and vivid, gpio-sim, vimc via libcamera, loss, removal and recovery, the
-# appliance and its walk mode), prints one CHECK line each, powers off.
+# appliance, its walk mode and its button's gestures), prints one CHECK line each, powers off.
 /bin/busybox --install -s /bin
 export PATH=/bin
 mount -t proc proc /proc
@@ -42,7 +42,8 @@ if [ -d /sys/kernel/config/gpio-sim ]; then
   echo 1 > $cfg/live
   chip=$(cat $cfg/bank0/chip_name)
   dev=$(cat $cfg/dev_name)
-  run gpio --chip "$chip" --line button --pull /sys/devices/platform/$dev/$chip/sim_gpio3/pull
+  button_pull=/sys/devices/platform/$dev/$chip/sim_gpio3/pull
+  run gpio --chip "$chip" --line button --pull $button_pull
 else
   echo "CHECK gpio-edges FAIL gpio-sim not available"
 fi
@@ -87,6 +88,8 @@ wait_for() {
 feed_started() { [ -f $1 ] && [ "$(wc -l < $1)" -ge 2 ]; }
 # feed_held ERR PID: the feeder (--hold-last) holds the last frame, or has ended.
 feed_held() { grep -q 'holding the last' $1 || ! kill -0 $2 2> /dev/null; }
+# count_at_least N FILE PATTERN: N or more lines of FILE match PATTERN (grep -E).
+count_at_least() { [ "$(grep -cE "$3" $2)" -ge $1 ]; }
 # json_value KEY LINE: KEY's value in one line of compact JSON (a `ctl watch` event), unquoted.
 json_value() { echo "$2" | sed -n "s/.*\"$1\":\(\"[^\"]*\"\|[^,}]*\).*/\1/p" | tr -d '"'; }
 # dump DIR FILE...: the last lines of each FILE, after a failed check.
@@ -193,6 +196,76 @@ walk_check() {
   [ "$verdict" = PASS ] || dump $d start.json stop.json feed.err monomeshd.log events.log eval.txt
 }
 walk_check appliance-loopback-walk /dataset_walk
+
+# 8. The GPIO button's gestures on the appliance (gpio-sim's line 3 as monomeshd's button,
+# [trigger] long_press_ms = 1000; the press times are the kernel's edge timestamps): a press
+# held 2 s starts a walk, a second one stops it and its entry is written; a short press (0.3 s)
+# is one capture, not a walk. The corridor walk is fed as in 7, from the first long press.
+# Usage: gpio_gestures DATASET CHIP PULL_FILE
+press() { echo pull-down > $pull; sleep $1; echo pull-up > $pull; }
+gpio_gestures() {
+  ds=$1 chip=$2 pull=$3
+  read fps max_ate min_kf min_path calib < $ds/check.conf
+  d=/tmp/mm-gpio
+  mkdir -p $d/spool
+  echo pull-up > $pull  # Released (active-low).
+  monomesh feed --device /dev/video10 --dataset $ds --fps "$fps" --format yuyv --once \
+    --hold-first --hold-last --log $d/feed.log 2> $d/feed.err &
+  feeder=$!
+  wait_for 10 feed_started $d/feed.log
+  start_daemon $d "$ds/$calib" "[trigger]\ngpio_chip = \"$chip\"\ngpio_line = \"button\"\nlong_press_ms = 1000\n[walk]\nmesh = \"sparse\"\n"
+  monomesh ctl watch --socket $d/control.sock > $d/events.log 2>&1 &
+  watcher=$!
+  wait_for 30 grep -q '"watching":true' $d/events.log
+  t0=$(date +%s)
+  press 2
+  wait_for 30 grep -q '"event":"walk_started"' $d/events.log
+  kill -USR1 $feeder
+  wait_for 300 count_at_least 3 $d/events.log '"event":"walk_keyframe"'
+  press 2
+  wait_for 300 grep -qE '"event":"walk_(entry|failed)"' $d/events.log
+  t1=$(date +%s)
+  started=$(grep '"event":"walk_started"' $d/events.log | head -n 1)
+  stopping=$(grep '"event":"walk_stopping"' $d/events.log | head -n 1)
+  entry=$(grep '"event":"walk_entry"' $d/events.log | head -n 1)
+  origin=$(json_value origin "$started") reason=$(json_value reason "$stopping")
+  kf=$(json_value keyframes "$entry") reg=$(json_value registered "$entry")
+  dir=$(json_value entry "$entry")
+  pass=FAIL
+  case "$origin" in
+    "gpio "*"(long press)")
+      [ "$reason" = operator ] && [ "${kf:-0}" -ge 3 ] && [ "$reg" = "$kf" ] &&
+        [ -f "$dir/report.json" ] && [ -f "$dir/trajectory.txt" ] && pass=PASS ;;
+  esac
+  echo "CHECK appliance-gpio-long-press $pass held 2 s: walk_started by '$origin'; held 2 s again: walk_stopping ($reason), walk entry of ${kf:-?} keyframes (${reg:-?} registered) in $((t1 - t0)) s: $(basename "${dir:-none}")"
+  # The short press: one capture from the button, no second walk.
+  t0=$(date +%s)
+  press 0.3
+  wait_for 300 grep -qE '"event":"(entry|capture_failed)"' $d/events.log
+  t1=$(date +%s)
+  kfa=$(grep '"event":"keyframe_a"' $d/events.log)
+  origin_a=$(json_value origin "$kfa")
+  result=$(grep -E '"event":"(entry|capture_failed)"' $d/events.log | head -n 1)
+  walks=$(grep -c '"event":"walk_started"' $d/events.log)
+  captures=$(echo "$kfa" | grep -c .)
+  spass=FAIL
+  case "$origin_a" in
+    "gpio "*"(long press)") ;;
+    "gpio "*)
+      [ "$captures" -eq 1 ] && [ "$walks" -eq 1 ] && echo "$result" | grep -q '"event":"entry"' && spass=PASS ;;
+  esac
+  echo "CHECK appliance-gpio-short-press $spass held 0.3 s: $captures capture(s) by '$origin_a', $walks walk(s) in all, then $(json_value event "$result") in $((t1 - t0)) s"
+  kill $daemon $feeder $watcher 2> /dev/null
+  wait $daemon
+  wait $feeder
+  wait $watcher
+  [ "$pass$spass" = PASSPASS ] || dump $d feed.err monomeshd.log events.log
+}
+if [ -n "${button_pull:-}" ]; then
+  gpio_gestures /dataset_walk "$chip" "$button_pull"
+else
+  echo "CHECK appliance-gpio-long-press FAIL gpio-sim not available"
+fi
 
 echo "GUEST done"
 poweroff -f
