@@ -18,7 +18,7 @@ volatile std::sig_atomic_t g_go = 0;
 
 int RunFeed(const std::string& device, const std::string& dataset, double fps,
             const std::string& format_name, bool loop, int64_t count, bool hold_first,
-            const std::string& log_path) {
+            bool hold_last, const std::string& log_path) {
   using Clock = std::chrono::steady_clock;
   const auto format = ParsePixelFormat(format_name);
   if (!format || (*format != PixelFormat::kGrey && *format != PixelFormat::kYuyv)) {
@@ -55,12 +55,19 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
   auto next = Clock::now();
   int64_t written = 0;
   Frame frame;
+  bool ended = false;
   while (!g_stop && (count <= 0 || written < count)) {
-    // --hold-first: the first frame again (a camera standing still) until SIGUSR1.
-    const bool hold = hold_first && written > 0 && !g_go;
+    // --hold-first: the first frame again (a camera standing still) until SIGUSR1;
+    // --hold-last: the last frame again after the end, until SIGTERM or SIGINT.
+    const bool hold = (hold_first && written > 0 && !g_go) || ended;
     if (!hold) {
       std::string error;
       const ReadStatus s = replay.Read(&frame, std::chrono::milliseconds(1000), &error);
+      if (s == ReadStatus::kEndOfStream && hold_last && written > 0) {
+        ended = true;
+        std::cerr << "end of " << dataset << " after " << written << " frames; holding the last\n";
+        continue;
+      }
       if (s == ReadStatus::kEndOfStream) break;
       if (s != ReadStatus::kFrame) {
         std::cerr << "monomesh feed: " << error << "\n";
@@ -103,6 +110,7 @@ Runner AddFeedCommand(CLI::App& app) {
     double fps = 30;
     bool once = false;
     bool hold_first = false;
+    bool hold_last = false;
     int64_t count = 0;
     std::string log;
   };
@@ -117,12 +125,15 @@ Runner AddFeedCommand(CLI::App& app) {
   cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
   cmd->add_flag("--hold-first", args->hold_first,
                 "Repeat the first frame (a camera standing still) until SIGUSR1, then play on");
+  cmd->add_flag("--hold-last", args->hold_last,
+                "With --once: after the end, repeat the last frame (a camera standing still) until "
+                "SIGTERM");
   cmd->add_option("--log", args->log,
                   "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for monomesh eval --feed-log)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count,
-                   args->hold_first, args->log);
+                   args->hold_first, args->hold_last, args->log);
   };
 }
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Kernel in the loop: boots Debian's own kernel under qemu (TCG, no KVM needed) with a busybox
-# initramfs holding vivid, v4l2loopback and gpio-sim and the project's check binary, runs the
-# checks inside and prints one line per check ("CHECK <name> PASS|FAIL <detail>"). Exits
+# initramfs holding vivid, v4l2loopback, vimc and gpio-sim, the project's check binary and the
+# appliance (monomeshd, monomesh), runs the checks inside and prints one line per check ("CHECK <name> PASS|FAIL <detail>"). Exits
 # non-zero when any check fails or the guest does not finish.
 # Usage: tests/kernel/run.sh [build dir]   (default build/default, must hold tests_kernel_checks)
 # Environment: MM_KERNEL_WORK (default build/kernel): downloads and module builds are cached there.
@@ -138,6 +138,25 @@ mkdir -p "$root/dataset"
 cp -r "$appliance_data"/rgb "$appliance_data"/rgb.txt "$appliance_data"/groundtruth.txt \
   "$appliance_data"/calib.toml "$root/dataset/"
 echo "$conf" > "$root/dataset/check.conf"
+# The walk checks' dataset: tests/integration/daemon_walk_test's corridor walk (seed 2) through
+# the board camera at 10 fps, 100 frames 10 cm apart; the guest gets its second half (from 5 m
+# down the first leg, round the corner, 1.4 m into the second) and plays it at
+# MM_KERNEL_WALK_FPS. The walk skips the frames that arrive while it registers a keyframe (2-5 s
+# under TCG), and natively still registers across 30 cm: 1 fps is 10 cm a second.
+walk_data="$work/corridor_walk"
+rm -rf "$walk_data"
+"$cli" synth --scene l-corridor --out "$walk_data" --frames 100 --fps 10 \
+  --calib tests/support/board_camera.toml --seed 2 --path walk >/dev/null
+log "corridor walk generated"
+mkdir -p "$root/dataset_walk/rgb"
+awk '/^#/ || $1 >= 1005.0' "$walk_data/rgb.txt" > "$root/dataset_walk/rgb.txt"
+grep -v '^#' "$root/dataset_walk/rgb.txt" | while read -r t f; do cp "$walk_data/$f" "$root/dataset_walk/rgb/"; done
+cp "$walk_data"/groundtruth.txt "$walk_data"/calib.toml "$root/dataset_walk/"
+# fps max_ate_percent min_keyframes min_path_m calibration. Measured under TCG (two runs): 14 and
+# 15 keyframes, all registered in one segment, ATE RMSE 0.174 % and 0.165 % of a 4.7-4.8 m path
+# (natively 0.07-0.11 % on the whole walk); the issue's bound is 0.5 %. 4 m of path: past the
+# corner's end.
+echo "${MM_KERNEL_WALK_FPS:-1} 0.25 10 4.0 calib.toml" > "$root/dataset_walk/check.conf"
 # Real hand-held video for the same check when ../shared/data has it (SUN3D study room, 30 Hz;
 # its SfM ground truth is interpolated between every 5th frame, hence the looser limits).
 video="$repo/../shared/data/sun3d_studyroom_continuous"
@@ -155,7 +174,7 @@ log "initramfs $(du -h "$work/initrd.zst" | cut -f1)"
 # Boot; the guest powers off when done (panic=-1 + -no-reboot end qemu on a crash).
 out="$work/console.log"
 set +e
-timeout 420 qemu-system-x86_64 -accel tcg -cpu max -smp 1 -nographic -no-reboot -nic none -m 1536 \
+timeout 900 qemu-system-x86_64 -accel tcg -cpu max -smp 1 -nographic -no-reboot -nic none -m 1536 \
   -kernel "$image/boot/vmlinuz-$kv" -initrd "$work/initrd.zst" \
   -append "console=ttyS0 quiet loglevel=3 panic=-1" > "$out" 2>&1
 qrc=$?
