@@ -92,31 +92,9 @@ if want colmap && [[ $has_colmap == 1 ]]; then
     mkdir -p "$d/images" "$d/sparse"
     cp "$dataset/${frames[$i]}" "$d/images/a.png"
     cp "$dataset/${frames[$((i + 1))]}" "$d/images/b.png"
-    # Wall and CPU (user + sys of the children, getrusage) of the three COLMAP commands.
-    python3 - "$d" "$params" > "$d/time.txt" <<'PY'
-import resource, subprocess, sys, time
-d, params = sys.argv[1], sys.argv[2]
-cmds = [
-    ["colmap", "feature_extractor", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
-     "--ImageReader.camera_model", "PINHOLE", "--ImageReader.single_camera", "1",
-     "--ImageReader.camera_params", params,
-     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"],
-    ["colmap", "exhaustive_matcher", "--database_path", f"{d}/db.db",
-     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"],
-    ["colmap", "mapper", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
-     "--output_path", f"{d}/sparse", "--Mapper.init_min_tri_angle", "2",
-     "--Mapper.num_threads", "1", "--Mapper.ba_refine_focal_length", "0",
-     "--Mapper.ba_refine_principal_point", "0", "--Mapper.ba_refine_extra_params", "0"],
-]
-start = time.monotonic()
-with open(f"{d}/log.txt", "w") as log:
-    for c in cmds:
-        if subprocess.run(c, stdout=log, stderr=subprocess.STDOUT).returncode != 0:
-            break
-wall = time.monotonic() - start
-ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}")
-PY
+    # Wall and CPU of the three COLMAP commands; a 2 deg initial pair angle (two images).
+    python3 "$root/bench/colmap_sfm.py" "$d" "$params" -- --Mapper.init_min_tri_angle 2 \
+      > "$d/time.txt"
     read -r wall cpu < "$d/time.txt"
     registered=0
     [[ -f "$d/sparse/0/images.bin" ]] && registered=1
@@ -199,31 +177,7 @@ PY
     grep -v '^#' "$dataset/$walk_list" | while read -r _ file; do cp "$dataset/$file" "$d/images/"; done
     # As the pair section (PINHOLE, intrinsics fixed, one thread, CPU SIFT) but with the mapper's
     # own initialisation angle (16 deg; it relaxes it when no pair passes), seeded.
-    python3 - "$d" "$params" > "$d/time.txt" <<'PY'
-import resource, subprocess, sys, time
-d, params = sys.argv[1], sys.argv[2]
-cmds = [
-    ["colmap", "feature_extractor", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
-     "--ImageReader.camera_model", "PINHOLE", "--ImageReader.single_camera", "1",
-     "--ImageReader.camera_params", params,
-     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "1"],
-    ["colmap", "exhaustive_matcher", "--database_path", f"{d}/db.db",
-     "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", "1"],
-    ["colmap", "mapper", "--database_path", f"{d}/db.db", "--image_path", f"{d}/images",
-     "--output_path", f"{d}/sparse", "--Mapper.num_threads", "1",
-     "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
-     "--Mapper.ba_refine_extra_params", "0"],
-]
-start = time.monotonic()
-with open(f"{d}/log.txt", "w") as log:
-    for c in cmds:
-        if subprocess.run(c + ["--random_seed", "17"], stdout=log,
-                          stderr=subprocess.STDOUT).returncode != 0:
-            break
-wall = time.monotonic() - start
-ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}")
-PY
+    python3 "$root/bench/colmap_sfm.py" "$d" "$params" --random-seed 17 > "$d/time.txt"
     # Every model COLMAP made, as text; walk_ate.py evaluates the largest.
     for m in "$d"/sparse/*/; do
       [[ -f "$m/images.bin" ]] || continue
