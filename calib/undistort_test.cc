@@ -117,7 +117,7 @@ TEST(Undistorter, RejectsWrongFrameSize) {
   c.height = 240;
   c.kc[0] = 0.1;
   const Undistorter u(c);
-  EXPECT_THROW(u.Apply(cv::Mat(100, 100, CV_8UC1)), std::invalid_argument);
+  EXPECT_THROW((void)u.Apply(cv::Mat(100, 100, CV_8UC1)), std::invalid_argument);
 }
 
 }  // namespace

@@ -20,7 +20,7 @@ endif()
 # builds `mm_libraries monomeshd monomesh mm_unit_tests`, not the integration tests or benchmarks):
 #   mm_libraries   every library made by mm_add_library
 #   mm_unit_tests  every test executable made by mm_add_test with the label "unit" (the default)
-#   mm_fuzzers     every libFuzzer target made by mm_add_fuzzer (the fuzz preset)
+#   mm_fuzzers     every libFuzzer target made by mm_add_fuzzer (the asan preset)
 if(NOT TARGET mm_libraries)
   add_custom_target(mm_libraries)
   add_custom_target(mm_unit_tests)
@@ -119,7 +119,7 @@ function(mm_forbid_links a)
 endfunction()
 
 # mm_add_fuzzer(NAME SOURCES ... [LINK ...] CORPUS DIR)
-# A libFuzzer target, made only in the fuzz preset (clang; MM_FUZZ instruments every target it
+# A libFuzzer target, made only in the asan preset (clang; MM_FUZZ instruments every target it
 # builds with ASan + UBSan and the fuzzer's coverage). DIR holds its seed inputs, in the
 # repository. Each target is listed as "name binary corpus" in <build>/fuzz_targets.txt, which
 # scripts/fuzz.sh (the fuzz stage of .ci/run) runs for a bounded time.

@@ -59,7 +59,7 @@ TEST(SiftKernels, BlurEqualsScalarReferenceOnEveryTarget) {
     const std::vector<float> k = sift::GaussianHalfKernel(sigma);
     sift::Plane ref;
     sift::BlurScalar(src, k, &ref);
-    ForEachTarget([&](int64_t target) {
+    ForEachTarget([&, w = w, h = h](int64_t target) {
       sift::Plane got;
       EXPECT_EQ(sift::Blur(src, k, &got), target);
       EXPECT_LT(MaxAbsDiff(got, ref), 1e-3f) << hwy::TargetName(target) << " " << w << "x" << h;
