@@ -457,6 +457,25 @@ std::string EvalToJson(const EvalResult& result) {
         scale["true_metres_per_unit"] = p.true_metres_per_unit;
         if (p.scale.scaled()) scale["rel_err"] = p.scale_rel_err;
       }
+      // What the floor source saw, for finding why a pair is off (camera A's frame).
+      const auto vec = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+      const VerticalVanishingPoint& vp = p.scale.vertical;
+      scale["vertical"] = {{"found", vp.found},
+                           {"up_in_cam", vec(vp.up_in_cam)},
+                           {"segments", vp.segments},
+                           {"inliers", vp.inliers},
+                           {"horizontal_inliers", vp.horizontal_inliers}};
+      scale["room"] = {{"found", p.scale.room.found},
+                       {"up_in_cam", vec(p.scale.room.up_in_cam)},
+                       {"walls", p.scale.room.walls},
+                       {"horizontal_planes", p.scale.room.horizontal_planes},
+                       {"rms_residual_rel", p.scale.room.rms_residual_rel}};
+      const FloorPlane& floor = p.scale.floor;
+      scale["floor"] = {{"found", floor.found},
+                        {"normal_in_cam", vec(floor.normal)},
+                        {"distance", floor.distance},
+                        {"inliers", floor.inliers},
+                        {"normal_angle_deg", floor.normal_angle_deg}};
       j["scale"] = std::move(scale);
     }
     if (p.mesh.valid) {

@@ -1,9 +1,8 @@
 #pragma once
-// The floor among a reconstruction's points: a RANSAC plane (Fischler & Bolles 1981) whose
-// normal is near the expected up direction and which lies below the camera, refitted to its
-// inliers by least squares (the smallest singular vector of the centred inliers). The distance
-// from the camera centre to it, in reconstruction units, against the camera's known height in
-// metres, gives the scale.
+// The floor among a reconstruction's points with its normal known: a RANSAC plane (Fischler &
+// Bolles 1981) below the camera, its distance refitted to its inliers by least squares. The
+// distance from the camera centre to it, in reconstruction units, against the camera's known
+// height in metres, gives the scale.
 //
 // Thread-safety: pure.
 
@@ -15,21 +14,14 @@
 namespace mm {
 
 struct FloorPlaneOptions {
-  /// Largest angle between the plane's normal and the expected up direction (degrees): the
-  /// mount's pitch is known to this much.
-  double max_normal_deg = 15.0;
   /// Inlier band: a point is on the plane when its distance is below this fraction of the
   /// plane's distance from the camera (scale-free: the reconstruction's units are arbitrary).
   double inlier_distance_rel = 0.02;
   int min_inliers = 30;
-  /// Of the planes parallel to the best supported one (within parallel_deg) with at least this
-  /// fraction of its support, the lowest is the floor (a table top can have more points in
-  /// view than the floor below it; a plane tilted through a strip of far floor points is not
-  /// parallel to the floor).
+  /// Of the planes with at least this fraction of the best supported one's points, the lowest
+  /// is the floor (a table top can have more points in view than the floor below it).
   double lower_plane_support = 0.5;
-  double parallel_deg = 3.0;
-  /// Samples of three points among those below the camera (the floor is a small share of a
-  /// room's points: at 10 % of them, 2000 samples hit it about twice).
+  /// Hypotheses, one point each, among those below the camera.
   int iterations = 2000;
   uint32_t seed = 1;
   /// A plane closer to the camera than this share of the median depth of the points below it
@@ -49,15 +41,11 @@ struct FloorPlane {
   double normal_angle_deg = 0.0;  ///< Between the normal and the expected up direction.
 };
 
-/// `points_in_cam`: reconstructed points in the camera's frame (x right, y down, z forward);
-/// `up_in_cam`: the expected up direction in that frame (e.g. UpInCamera(pitch)).
-FloorPlane FitFloorPlane(std::span<const Eigen::Vector3d> points_in_cam,
-                         const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options = {});
-
-/// As FitFloorPlane with the normal known to be `up_in_cam` (e.g. from the image's vertical
-/// vanishing point, scale/vertical_vanishing_point.h): one point fixes a hypothesis, and the
-/// inliers refine only the distance. For a floor seen as a shallow strip, whose own points fix
-/// its pitch poorly.
+/// The floor among `points_in_cam` (the camera's frame: x right, y down, z forward) with its
+/// normal known to be `up_in_cam` (from the room's walls, scale/room_planes.h, or the image's
+/// vertical vanishing point, scale/vertical_vanishing_point.h): one point fixes a hypothesis,
+/// and the inliers refine only the distance. For a floor seen as a shallow strip, whose own
+/// points fix its pitch poorly.
 FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
                               const Eigen::Vector3d& up_in_cam,
                               const FloorPlaneOptions& options = {});

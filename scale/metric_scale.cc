@@ -89,16 +89,21 @@ ScaleEstimate EstimateScale(const ScaleInputs& inputs, const ScaleOptions& optio
   }
   double floor_sigma = 0.0;
   if (want_floor) {
-    // The up direction from the image's vertical lines when they show it; else the floor's
-    // own points fix its normal near the mount's nominal up.
+    // The floor among the room's planes, its normal held at the up direction that the walls
+    // and every horizontal plane agree on (scale/room_planes.h). With no wall in view, the
+    // image's vertical lines fix the up direction when they show it (the floor strip alone
+    // fixes its pitch poorly).
     const Eigen::Vector3d nominal_up = UpInCamera(options.camera_pitch_deg);
-    if (!inputs.gray_a.empty()) {
-      out.vertical = EstimateVerticalVanishingPoint(inputs.gray_a, inputs.K, nominal_up,
-                                                    options.vertical);
+    out.room = FitRoomPlanes(inputs.points_in_a, nominal_up, options.room);
+    out.floor = out.room.floor;
+    if (!out.room.found) {
+      out.floor.why_not = out.room.why_not;
+    } else if (out.room.walls == 0 && !inputs.gray_a.empty()) {
+      out.vertical =
+          EstimateVerticalVanishingPoint(inputs.gray_a, inputs.K, nominal_up, options.vertical);
+      if (out.vertical.found)
+        out.floor = FitFloorPlaneAlong(inputs.points_in_a, out.vertical.up_in_cam, options.floor);
     }
-    out.floor = out.vertical.found
-                    ? FitFloorPlaneAlong(inputs.points_in_a, out.vertical.up_in_cam, options.floor)
-                    : FitFloorPlane(inputs.points_in_a, nominal_up, options.floor);
     if (!out.floor.found) {
       if (options.source != ScaleSource::kOdometry)
         AppendWhy(&out.why_not, "floor: " + out.floor.why_not);

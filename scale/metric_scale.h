@@ -14,6 +14,7 @@
 #include <string>
 
 #include "scale/floor_plane.h"
+#include "scale/room_planes.h"
 #include "scale/vertical_vanishing_point.h"
 
 namespace mm {
@@ -36,6 +37,7 @@ struct ScaleOptions {
   double camera_height_sigma_rel = 0.01;
   /// Odometry and floor both at hand and further apart than this (relative): no scale.
   double max_disagreement_rel = 0.2;
+  RoomPlanesOptions room;
   FloorPlaneOptions floor;
   VerticalVanishingOptions vertical;
   [[nodiscard]] std::string Check() const;
@@ -64,7 +66,10 @@ struct ScaleEstimate {
   double odometry_metres_per_unit = 0.0;
   double floor_metres_per_unit = 0.0;
   FloorPlane floor;
-  /// The up direction from A's vertical lines (floor source; when found, the floor's normal).
+  /// The room's planes (floor source): the floor and the up direction its walls fix.
+  RoomPlanes room;
+  /// The up direction from A's vertical lines, looked for when the room shows no wall (then,
+  /// when found, the floor's normal).
   VerticalVanishingPoint vertical;
   [[nodiscard]] bool scaled() const { return source != ScaleSource::kNone; }
 };

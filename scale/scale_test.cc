@@ -5,14 +5,16 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <opencv2/imgproc.hpp>
 #include <cmath>
+#include <iostream>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <vector>
 
 #include "scale/floor_plane.h"
 #include "scale/metric_scale.h"
 #include "scale/odometry.h"
+#include "scale/room_planes.h"
 #include "scale/vertical_vanishing_point.h"
 
 namespace mm {
@@ -114,28 +116,94 @@ std::vector<Eigen::Vector3d> Room(double height_m, double pitch_deg, double metr
   return cam;
 }
 
-TEST(FloorPlane, FindsTheFloorBelowATableTopWithMorePoints) {
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+TEST(RoomPlanes, FindsTheFloorBelowATableTopWithMorePoints) {
   const double height = 1.2, pitch = 12.0, mpu = 0.35;
   const std::vector<Eigen::Vector3d> points = Room(height, pitch, mpu, 0.005, 7);
   // The level frame's up is exact for the room; tell the fit the nominal pitch only to 3 deg.
-  const FloorPlane floor = FitFloorPlane(points, UpInCamera(pitch + 3.0));
-  ASSERT_TRUE(floor.found) << floor.why_not;
-  EXPECT_NEAR(floor.distance * mpu, height, 0.01 * height);
-  EXPECT_NEAR(floor.normal_angle_deg, 3.0, 0.5);
-  EXPECT_GE(floor.inliers, 180);
-  EXPECT_LE(floor.inliers, 220);
+  const RoomPlanes room = FitRoomPlanes(points, UpInCamera(pitch + 3.0));
+  ASSERT_TRUE(room.found) << room.why_not;
+  std::cout << "[ figures  ] up off by " << AngleDeg(room.up_in_cam, UpInCamera(pitch))
+            << " deg, height " << room.floor.distance * mpu << " m\n";
+  EXPECT_NEAR(room.floor.distance * mpu, height, 0.005 * height);
+  EXPECT_NEAR(room.floor.normal_angle_deg, 3.0, 0.1);
+  EXPECT_LT(AngleDeg(room.up_in_cam, UpInCamera(pitch)), 0.1);
+  EXPECT_EQ(room.horizontal_planes, 2);  // Floor and table.
+  EXPECT_EQ(room.walls, 2);
+  EXPECT_GE(room.floor.inliers, 190);
+  EXPECT_LE(room.floor.inliers, 200);
   // The pitch says the camera looks down: UpInCamera is the frame's -y tilted towards -z.
   EXPECT_NEAR(UpInCamera(90.0).z(), -1.0, 1e-12);
 }
 
-TEST(FloorPlane, NoHorizontalPlaneBelowTheCameraIsReported) {
+TEST(RoomPlanes, NoHorizontalPlaneBelowTheCameraIsReported) {
   std::vector<Eigen::Vector3d> walls = Room(1.2, 0.0, 1.0, 0.002, 3);
   walls.erase(walls.begin(), walls.begin() + 500);  // Walls only.
-  const FloorPlane floor = FitFloorPlane(walls, UpInCamera(0.0));
-  EXPECT_FALSE(floor.found);
-  EXPECT_NE(floor.why_not.find("no horizontal plane"), std::string::npos) << floor.why_not;
+  const RoomPlanes room = FitRoomPlanes(walls, UpInCamera(0.0));
+  EXPECT_FALSE(room.found);
+  EXPECT_NE(room.why_not.find("no floor in view"), std::string::npos) << room.why_not;
   EXPECT_FALSE(
-      FitFloorPlane(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d::Zero()), UpInCamera(0)).found);
+      FitRoomPlanes(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d::Zero()), UpInCamera(0)).found);
+}
+
+// A corridor seen by a camera 1.6 m up, pitched down 1.2 deg and rolled 0.7 deg: the floor a
+// strip 4-5.5 m ahead (a grazing view), side walls 1 m left and right, the end wall 6 m ahead,
+// the ceiling at 2.5 m; noise 0.5 % of each point's depth along its ray (as dense depth errs).
+std::vector<Eigen::Vector3d> Corridor(const Eigen::Matrix3d& cam_from_level, bool with_floor,
+                                      uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  std::vector<Eigen::Vector3d> level;  // x right, y down, z forward; the floor at y = 1.6.
+  if (with_floor) {
+    for (int i = 0; i < 400; ++i) level.emplace_back(-1 + 2 * u(rng), 1.6, 4.0 + 1.5 * u(rng));
+  }
+  for (int i = 0; i < 800; ++i) {
+    level.emplace_back(i % 2 ? 1.0 : -1.0, -0.9 + 2.5 * u(rng), 1.0 + 5.0 * u(rng));
+  }
+  for (int i = 0; i < 600; ++i) level.emplace_back(-1 + 2 * u(rng), -0.9 + 2.5 * u(rng), 6.0);
+  for (int i = 0; i < 300; ++i) level.emplace_back(-1 + 2 * u(rng), -0.9, 2.0 + 4.0 * u(rng));
+  std::vector<Eigen::Vector3d> cam;
+  for (const Eigen::Vector3d& x : level) {
+    const Eigen::Vector3d c = cam_from_level * x;
+    cam.push_back(c * (1.0 + noise(rng)));
+  }
+  return cam;
+}
+
+TEST(RoomPlanes, TheWallsFixTheUpDirectionWhereTheFloorStripCannot) {
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  const Eigen::Matrix3d cam_from_level = (Eigen::AngleAxisd(-1.2 * kDeg, Eigen::Vector3d::UnitX()) *
+                                          Eigen::AngleAxisd(0.7 * kDeg, Eigen::Vector3d::UnitZ()))
+                                             .toRotationMatrix();
+  const Eigen::Vector3d true_up = cam_from_level * Eigen::Vector3d(0, -1, 0);
+  const RoomPlanes room = FitRoomPlanes(Corridor(cam_from_level, true, 5), UpInCamera(0.0));
+  ASSERT_TRUE(room.found) << room.why_not;
+  EXPECT_EQ(room.walls, 3);
+  EXPECT_EQ(room.horizontal_planes, 2);
+  // Measured 0.03 deg and 0.08 %; every 0.1 deg of pitch is 0.5 % of the height at 4.5 m.
+  std::cout << "[ figures  ] up off by " << AngleDeg(room.up_in_cam, true_up) << " deg, height "
+            << room.floor.distance << " m, rms " << room.rms_residual_rel << "\n";
+  EXPECT_LT(AngleDeg(room.up_in_cam, true_up), 0.1);
+  EXPECT_NEAR(room.floor.distance, 1.6, 0.004 * 1.6);
+  EXPECT_GE(room.floor.inliers, 380);
+  EXPECT_LT(room.rms_residual_rel, 0.006);
+}
+
+// A box top 0.6 m above a floor that is out of view, with the walls reaching down to the floor:
+// the lowest horizontal plane has points below it, so it is no floor.
+TEST(RoomPlanes, ABoxTopWithTheWallsReachingBelowItIsNoFloor) {
+  std::vector<Eigen::Vector3d> points = Corridor(Eigen::Matrix3d::Identity(), false, 9);
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 300; ++i) points.emplace_back(-0.3 + 0.6 * u(rng), 1.0, 3.0 + 0.5 * u(rng));
+  const RoomPlanes room = FitRoomPlanes(points, UpInCamera(0.0));
+  EXPECT_FALSE(room.found);
+  EXPECT_NE(room.why_not.find("below the lowest horizontal plane"), std::string::npos)
+      << room.why_not;
 }
 
 TEST(MetricScale, OdometryGivesTheBaselineInMetres) {
