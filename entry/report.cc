@@ -139,6 +139,16 @@ void ReadKeyframe(const json& j, KeyframeInfo* k) {
 
 }  // namespace
 
+EntryReport::Scale ReportScale(const ScaleEstimate& scale) {
+  return {.source = ScaleSourceName(scale.source),
+          .units = scale.scaled() ? "metres" : "baseline",
+          .metres_per_unit = scale.scaled() ? scale.metres_per_unit : 1.0,
+          .uncertainty_rel = scale.uncertainty_rel,
+          .odometry_metres_per_unit = scale.odometry_metres_per_unit,
+          .floor_metres_per_unit = scale.floor_metres_per_unit,
+          .why_not = scale.why_not};
+}
+
 EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
                             const KeyframeInfo& b, const BouguetCamera& camera,
                             const PairOptions& options, bool features_a_precomputed,
@@ -189,13 +199,7 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
   report.relative_pose.rotation = g.rotation;
   report.relative_pose.quaternion_wxyz = {q.w(), q.x(), q.y(), q.z()};
   report.relative_pose.translation = g.translation;
-  report.scale = {.source = ScaleSourceName(scale.source),
-                  .units = scale.scaled() ? "metres" : "baseline",
-                  .metres_per_unit = scale.scaled() ? scale.metres_per_unit : 1.0,
-                  .uncertainty_rel = scale.uncertainty_rel,
-                  .odometry_metres_per_unit = scale.odometry_metres_per_unit,
-                  .floor_metres_per_unit = scale.floor_metres_per_unit,
-                  .why_not = scale.why_not};
+  report.scale = ReportScale(scale);
   report.counts = {.features_a = r.features_a,
                    .features_b = r.features_b,
                    .matches = r.matches,

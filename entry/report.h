@@ -192,6 +192,9 @@ EntryReport MakeEntryReport(const PairReconstruction& recon, const KeyframeInfo&
                             std::span<const KeyframeBTry> tries = {},
                             const ScaleEstimate& scale = {});
 
+/// The report's `scale` for an estimate (units "metres" when it scaled, else "baseline").
+EntryReport::Scale ReportScale(const ScaleEstimate& scale);
+
 nlohmann::json ToJson(const EntryReport& report);
 
 /// Reads a report; keys that are absent keep their defaults (a report may be partial, e.g. a

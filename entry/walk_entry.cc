@@ -29,7 +29,7 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 // TUM trajectory format (Sturm et al. 2012): `timestamp tx ty tz qx qy qz qw`, the camera's
 // pose in the world (camera-to-world).
 std::string TrajectoryText(const WalkMap& map, std::span<const KeyframeInfo> infos, int segment,
-                           const std::string& units) {
+                           double metres_per_unit, const std::string& units) {
   std::ostringstream out;
   out.precision(9);
   out << "# monomesh walk: keyframe poses of segment " << segment
@@ -40,7 +40,7 @@ std::string TrajectoryText(const WalkMap& map, std::span<const KeyframeInfo> inf
     if (!k.registered || k.segment != segment) continue;
     const Eigen::Isometry3d world_from_cam = k.cam_from_segment.inverse();
     const Eigen::Quaterniond q(world_from_cam.linear());
-    const Eigen::Vector3d& t = world_from_cam.translation();
+    const Eigen::Vector3d t = metres_per_unit * world_from_cam.translation();
     const double time = i < infos.size() ? infos[i].source_time_s : k.timestamp_s;
     char line[256];
     std::snprintf(line, sizeof(line), "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", time, t.x(),
@@ -91,12 +91,18 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
               .cc = in.camera.cc,
               .alpha_c = in.camera.alpha_c,
               .kc = in.camera.kc};
-  r.scale.source = "none";
-  r.scale.units = "baseline";
-  r.scale.why_not =
-      "a walk's map is up to scale: the baseline of its segment's first two keyframes is the "
-      "unit";
-  const std::string units = "up to scale (the first baseline of the segment is the unit)";
+  // Every length in metres when the scale is known, else in the segment's first baseline.
+  r.scale = ReportScale(in.scale);
+  const double metres_per_unit = r.scale.metres_per_unit;
+  if (!in.scale.scaled() && r.scale.why_not.empty()) {
+    r.scale.why_not =
+        "a walk's map is up to scale: the baseline of its segment's first two keyframes is the "
+        "unit";
+  }
+  const std::string units = in.scale.scaled()
+                                ? "metres (scale from " + r.scale.source + ", " +
+                                      std::to_string(metres_per_unit) + " m per unit)"
+                                : "up to scale (the first baseline of the segment is the unit)";
 
   // Keyframes and segments.
   std::map<int, WalkReport::Segment> segments;
@@ -121,7 +127,7 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     }
     const Eigen::Quaterniond q(k.cam_from_segment.linear());
     rk.quaternion_wxyz = {q.w(), q.x(), q.y(), q.z()};
-    rk.translation = k.cam_from_segment.translation();
+    rk.translation = metres_per_unit * k.cam_from_segment.translation();
     r.keyframes.push_back(rk);
     WalkReport::Segment& s = segments[k.segment];
     if (s.keyframes == 0) s.first_keyframe = static_cast<int>(i);
@@ -155,7 +161,9 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     if (keyframes[i].registered && keyframes[i].segment == segment) {
       image_of_keyframe[static_cast<int>(i)] = static_cast<int>(members.size());
       members.push_back(static_cast<int>(i));
-      cam_from_world.push_back(keyframes[i].cam_from_segment);
+      Eigen::Isometry3d cam_from_segment = keyframes[i].cam_from_segment;
+      cam_from_segment.translation() *= metres_per_unit;
+      cam_from_world.push_back(cam_from_segment);
     }
   }
   // Colour of each point from its first observation's keyframe (each image decoded once).
@@ -190,7 +198,8 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     }
   }
   std::vector<Eigen::Vector3d> positions;
-  for (int id : point_ids) positions.push_back(points[static_cast<size_t>(id)].position_in_segment);
+  for (int id : point_ids)
+    positions.push_back(metres_per_unit * points[static_cast<size_t>(id)].position_in_segment);
   r.counts.points = static_cast<int>(positions.size());
 
   // The mesh.
@@ -205,11 +214,19 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
   }
   Mesh merged;
   if (in.mesh != nullptr && !in.mesh->parts.empty()) {
-    std::vector<GlbPart> parts;
+    std::vector<Mesh> part_meshes;
+    part_meshes.reserve(in.mesh->parts.size());
     for (const WalkMeshPart& part : in.mesh->parts) {
+      part_meshes.push_back(part.mesh);
+      for (Eigen::Vector3f& v : part_meshes.back().vertices)
+        v *= static_cast<float>(metres_per_unit);
+    }
+    std::vector<GlbPart> parts;
+    for (size_t i = 0; i < in.mesh->parts.size(); ++i) {
+      const WalkMeshPart& part = in.mesh->parts[i];
       const auto k = static_cast<size_t>(part.keyframe);
       parts.push_back(
-          {.mesh = &part.mesh,
+          {.mesh = &part_meshes[i],
            .texture_jpeg = k < in.keyframe_jpegs.size() ? &in.keyframe_jpegs[k] : nullptr,
            .name = "keyframe_" + std::to_string(part.keyframe)});
     }
@@ -220,9 +237,11 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     info.node_name = "walk_map";
     out.files.push_back({"map.glb", EncodeGlb(parts, info)});
     merged = in.mesh->Merged();
+    for (Eigen::Vector3f& v : merged.vertices) v *= static_cast<float>(metres_per_unit);
     out.files.push_back({"map.ply", EncodePly(merged, "monomesh walk map, " + units)});
   }
-  out.files.push_back({"trajectory.txt", TrajectoryText(map, in.keyframe_infos, segment, units)});
+  out.files.push_back(
+      {"trajectory.txt", TrajectoryText(map, in.keyframe_infos, segment, metres_per_unit, units)});
   out.files.push_back(
       {"points.ply", EncodePointsPly(positions, colors, "monomesh walk map points, " + units)});
 
@@ -238,7 +257,7 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
   for (size_t n = 0; n < point_ids.size(); ++n) {
     const WalkPoint& point = points[static_cast<size_t>(point_ids[n])];
     ColmapModel::Point cp;
-    cp.position = point.position_in_segment;
+    cp.position = metres_per_unit * point.position_in_segment;
     cp.rgb = colors[n];
     for (const WalkPoint::Observation& o : point.observations) {
       const auto it = image_of_keyframe.find(o.keyframe);

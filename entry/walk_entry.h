@@ -1,11 +1,11 @@
 #pragma once
 // A walk's spool entry (docs/walk.md): the map of the walk's largest segment in its first
-// keyframe's frame. Files: map.glb (the keyframe mesh parts, each textured by its keyframe),
-// map.ply (the same merged, vertex colours), trajectory.txt (the segment's keyframe poses,
-// camera-to-world, TUM format: `timestamp tx ty tz qx qy qz qw`), keyframe_NNNN.jpg (every
-// keyframe), points.ply (the segment's map points), the COLMAP text model of the segment
-// (cameras.txt, images.txt, points3D.txt), calibration.toml, preview.png (plan view and
-// oblique view) and, last, report.json (WalkReport).
+// keyframe's frame, in metres when the walk's scale is known. Files: map.glb (the keyframe mesh
+// parts, each textured by its keyframe), map.ply (the same merged, vertex colours), trajectory.txt
+// (the segment's keyframe poses, camera-to-world, TUM format: `timestamp tx ty tz qx qy qz qw`),
+// keyframe_NNNN.jpg (every keyframe), points.ply (the segment's map points), the COLMAP text model
+// of the segment (cameras.txt, images.txt, points3D.txt), calibration.toml, preview.png (plan view
+// and oblique view) and, last, report.json (WalkReport).
 //
 // Thread-safety: renders the preview with a Renderer of its own on the calling thread.
 
@@ -18,6 +18,7 @@
 #include "entry/report.h"
 #include "map/walk_map.h"
 #include "map/walk_mesh.h"
+#include "scale/metric_scale.h"
 
 namespace mm {
 
@@ -28,6 +29,9 @@ struct WalkEntryInput {
   std::vector<KeyframeInfo> keyframe_infos;    ///< Per map keyframe.
   std::vector<WalkKeyframeSummary> summaries;  ///< Per map keyframe: its registration.
   BouguetCamera camera;                        ///< Of the undistorted frames (no distortion).
+  /// The walk's scale (EstimateScale on the map segment); when it scaled, every length the
+  /// entry holds is in metres.
+  ScaleEstimate scale;
   std::string stop_reason;
   uint64_t frames = 0;
   double walk_seconds = 0.0;

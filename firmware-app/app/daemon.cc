@@ -96,10 +96,18 @@ class SharedOdometry {
     arrived_.notify_all();
   }
 
-  /// The positions at `time_a_s` and `time_b_s`, after waiting up to `wait` for a sample at or
-  /// after `time_b_s` (a bridge's latency); what is missing comes with its reason.
-  PairScaleInputs Lookup(double time_a_s, double time_b_s, const OdometryLookupOptions& options,
-                         std::chrono::duration<double> wait) {
+  /// The positions at keyframes `a` and `b`'s times on the clock of the `odom` timestamps
+  /// ([scale] odometry_clock), after waiting up to max_odom_age_s for a sample at or after
+  /// b's time (a bridge's latency); what is missing comes with its reason.
+  PairScaleInputs Lookup(const DaemonConfig& config, const KeyframeInfo& a, const KeyframeInfo& b) {
+    const auto time_of = [&](const KeyframeInfo& k) {
+      return config.odometry_clock == DaemonConfig::OdometryClock::kCamera
+                 ? k.source_time_s
+                 : static_cast<double>(k.capture_realtime_ns) * 1e-9;
+    };
+    const double time_a_s = time_of(a), time_b_s = time_of(b);
+    const OdometryLookupOptions options{.max_age_s = config.max_odom_age_s};
+    const std::chrono::duration<double> wait(config.max_odom_age_s);
     std::unique_lock lock(mutex_);
     arrived_.wait_for(lock, wait,
                       [&] { return !track_.empty() && track_.newest().time_s >= time_b_s; });
@@ -263,9 +271,7 @@ class Worker {
       PairScaleInputs scale;
       if (config_.scale.source == ScaleSource::kOdometry ||
           config_.scale.source == ScaleSource::kAuto) {
-        scale = odometry_->Lookup(OdometryTime(a), OdometryTime(b),
-                                  {.max_age_s = config_.max_odom_age_s},
-                                  std::chrono::duration<double>(config_.max_odom_age_s));
+        scale = odometry_->Lookup(config_, a, b);
       }
       scale.options = config_.scale;
       PairJobResult result =
@@ -295,13 +301,6 @@ class Worker {
     outcome.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return outcome;
-  }
-
-  // A keyframe's time on the clock of the `odom` timestamps ([scale] odometry_clock).
-  double OdometryTime(const KeyframeInfo& k) const {
-    return config_.odometry_clock == DaemonConfig::OdometryClock::kCamera
-               ? k.source_time_s
-               : static_cast<double>(k.capture_realtime_ns) * 1e-9;
   }
 
   const DaemonConfig& config_;
@@ -571,7 +570,10 @@ int Daemon::Run() {
   worker_ = std::make_unique<Worker>(config_, undistorter_.output_camera(), &spool_, &odometry_,
                                      done_event_.get());
   gate_ = std::make_unique<GateThread>(undistorter_, &session_, gate_event_.get());
-  walk_ = std::make_unique<WalkThread>(config_, undistorter_, &spool_, walk_event_.get());
+  walk_ = std::make_unique<WalkThread>(config_, undistorter_, &spool_, walk_event_.get(),
+                                       [this](const KeyframeInfo& first, const KeyframeInfo& last) {
+                                         return odometry_.Lookup(config_, first, last);
+                                       });
 
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   last_watchdog_ = std::chrono::steady_clock::now();

@@ -14,6 +14,54 @@
 namespace mm {
 namespace {
 
+// The walk's scale from its map segment, in the frame of the segment's first keyframe (its
+// camera A): the floor among the segment's points and its mesh's vertices (a walk sees metres
+// of floor, where a pair sees a strip), and the odometry between the segment's first and last
+// registered keyframes against their distance in the map.
+ScaleEstimate EstimateWalkScale(const WalkMap& map, int segment, const WalkMesh& mesh,
+                                const std::vector<KeyframeInfo>& infos, const DaemonConfig& config,
+                                const OdometryLookup& odometry) {
+  std::vector<int> members;
+  for (size_t i = 0; i < map.keyframes().size(); ++i) {
+    const WalkKeyframe& k = map.keyframes()[i];
+    if (k.registered && k.segment == segment) members.push_back(static_cast<int>(i));
+  }
+  ScaleEstimate out;
+  if (members.size() < 2 || static_cast<size_t>(members.back()) >= infos.size()) {
+    out.why_not = "the walk's map has fewer than two registered keyframes";
+    return out;
+  }
+  const auto centre = [&](int k) {
+    const Eigen::Isometry3d& cam_from_segment =
+        map.keyframes()[static_cast<size_t>(k)].cam_from_segment;
+    return Eigen::Vector3d(-cam_from_segment.linear().transpose() * cam_from_segment.translation());
+  };
+  std::vector<Eigen::Vector3d> points;
+  for (const WalkPoint& p : map.points()) {
+    if (p.valid && p.segment == segment) points.push_back(p.position_in_segment);
+  }
+  for (const WalkMeshPart& part : mesh.parts) {
+    for (const Eigen::Vector3f& v : part.mesh.vertices) points.push_back(v.cast<double>());
+  }
+  PairScaleInputs odometry_at;
+  if (odometry && (config.scale.source == ScaleSource::kOdometry ||
+                   config.scale.source == ScaleSource::kAuto)) {
+    odometry_at = odometry(infos[static_cast<size_t>(members.front())],
+                           infos[static_cast<size_t>(members.back())]);
+  }
+  ScaleInputs inputs;  // No image: the walk's walls fix the floor's normal.
+  inputs.odometry_a_m = odometry_at.odometry_a_m;
+  inputs.odometry_b_m = odometry_at.odometry_b_m;
+  inputs.odometry_why_not = odometry_at.odometry_why_not;
+  inputs.baseline_units = (centre(members.back()) - centre(members.front())).norm();
+  inputs.points_in_a = points;
+  return EstimateScale(inputs, config.scale);
+}
+
+}  // namespace
+
+namespace {
+
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -21,8 +69,12 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 WalkThread::WalkThread(const DaemonConfig& config, const Undistorter& undistorter, Spool* spool,
-                       int done_fd)
-    : config_(config), undistorter_(undistorter), spool_(spool), done_fd_(done_fd) {
+                       int done_fd, OdometryLookup odometry)
+    : config_(config),
+      undistorter_(undistorter),
+      spool_(spool),
+      done_fd_(done_fd),
+      odometry_(std::move(odometry)) {
   thread_ = std::thread([this] { RunGuarded(); });
 }
 
@@ -215,6 +267,16 @@ WalkOutcome WalkThread::Finish() {
     const WalkMesh mesh = BuildWalkMesh(
         map, segment, camera.K(),
         [&](int k) { return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]); }, mesh_options);
+    ScaleEstimate metric;
+    if (config_.scale.source != ScaleSource::kNone) {
+      metric = EstimateWalkScale(map, segment, mesh, infos_, config_, odometry_);
+      if (metric.scaled()) {
+        spdlog::info("walk: {:.4f} m per unit from {}", metric.metres_per_unit,
+                     ScaleSourceName(metric.source));
+      } else {
+        spdlog::info("walk: unscaled: {}", metric.why_not);
+      }
+    }
     WalkReport report;
     const EncodedEntry entry =
         EncodeWalkEntry(WalkEntryInput{.map = &map,
@@ -223,6 +285,7 @@ WalkOutcome WalkThread::Finish() {
                                        .keyframe_infos = infos_,
                                        .summaries = summaries_,
                                        .camera = camera,
+                                       .scale = metric,
                                        .stop_reason = reason,
                                        .frames = status().frames,
                                        .walk_seconds = SecondsSince(started_)},

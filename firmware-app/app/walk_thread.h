@@ -14,6 +14,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "app/config.h"
+#include "app/pair_job.h"
 #include "calib/undistort.h"
 #include "capture/frame.h"
 #include "entry/report.h"
@@ -56,10 +58,16 @@ struct WalkOutcome {
   double seconds = 0.0;  ///< Making the entry.
 };
 
+/// The robot's odometry at two keyframes' times (the daemon's `odom` stream), or why not.
+using OdometryLookup =
+    std::function<PairScaleInputs(const KeyframeInfo& first, const KeyframeInfo& last)>;
+
 class WalkThread {
  public:
-  /// `undistorter` and `spool` outlive the thread; `done_fd` is an eventfd.
-  WalkThread(const DaemonConfig& config, const Undistorter& undistorter, Spool* spool, int done_fd);
+  /// `undistorter` and `spool` outlive the thread; `done_fd` is an eventfd. `odometry` serves
+  /// the odometry and auto scale sources ([scale]); empty: none.
+  WalkThread(const DaemonConfig& config, const Undistorter& undistorter, Spool* spool, int done_fd,
+             OdometryLookup odometry = {});
   ~WalkThread();  // A walk still open is abandoned (nothing written).
   WalkThread(const WalkThread&) = delete;
   WalkThread& operator=(const WalkThread&) = delete;
@@ -92,6 +100,7 @@ class WalkThread {
   const Undistorter& undistorter_;
   Spool* spool_;
   int done_fd_;
+  OdometryLookup odometry_;
 
   // The walk itself: touched only by the thread while open (after Start hands it over).
   std::unique_ptr<WalkTracker> tracker_;

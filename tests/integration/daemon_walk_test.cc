@@ -1,6 +1,6 @@
 // monomeshd in walk mode (docs/walk.md): the synthetic L-shaped corridor replayed in real time,
-// `ctl walk start`, one walk entry when the camera ends, checked against the exact ground truth
-// by `monomesh eval --spool`; an operator's stop; kill -9 during a walk; the daemon's peak RSS
+// `ctl walk start`, one walk entry in metres (floor scale) when the camera ends, checked against
+// the exact ground truth by `monomesh eval --spool`; an operator's stop; kill -9 during a walk; the daemon's peak RSS
 // over a walk of 300 keyframes.
 #include <Eigen/Geometry>
 #include <fstream>
@@ -68,7 +68,10 @@ WalkReport ReadWalk(const fs::path& entry) {
 TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   const fs::path seq = Synthesize("corridor");
-  DaemonProcess daemon("walk", "rate=realtime&loop=0", "", seq, "", seq / "calib.toml");
+  // Scaled from the floor at the eye's height (docs/scale.md): the entry is in metres.
+  DaemonProcess daemon("walk", "rate=realtime&loop=0",
+                       "[scale]\nsource = \"floor\"\ncamera_height_m = 1.6\n", seq, "",
+                       seq / "calib.toml");
   daemon.Start();
   const json started = daemon.Command("walk start");
   ASSERT_TRUE(started.value("ok", false)) << started.dump();
@@ -121,6 +124,14 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   std::cout << text;
   const json eval = json::parse(ReadAll(out));
   EXPECT_EQ(eval["summary"]["walks_evaluated"], 1);
+  // In metres: the similarity that aligns the trajectory to the truth has scale 1.
+  EXPECT_EQ(report.scale.source, "floor") << report.scale.why_not;
+  EXPECT_EQ(report.scale.units, "metres");
+  const double sim3_scale = eval["entries"][0]["walk"]["sim3_scale"].get<double>();
+  std::cout << "[ figures  ] walk scale from the floor: " << report.scale.metres_per_unit
+            << " m per unit, " << report.scale.uncertainty_rel
+            << " relative sigma; the truth's alignment scale " << sim3_scale << "\n";
+  EXPECT_NEAR(sim3_scale, 1.0, 0.02);  // Measured 1.004; the issue asks 2 % (median).
   // The issue's target for the walk: ATE RMSE <= 0.5 % of the path (measured 0.02-0.03 %).
   EXPECT_LE(eval["summary"]["walk_ate_rel_max"].get<double>(), 0.005);
   EXPECT_GE(eval["entries"][0]["walk"]["path_length_m"].get<double>(), 5.0);
