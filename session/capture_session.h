@@ -112,6 +112,9 @@ class CaptureSession {
   [[nodiscard]] const std::string& failure_reason() const { return failure_reason_; }
   /// The gate's tracks from A to the last frame, as correspondences for the reconstruction.
   [[nodiscard]] std::vector<TrackCorrespondence> Tracks() const;
+  /// The frame about halfway from A to the last frame, with the tracks' correspondences at it,
+  /// for the dense stage (empty when the gate has tracked none).
+  [[nodiscard]] std::vector<IntermediateView> Between() const;
   /// "n refused: reason (k); reason (m)" over the refused tries, for messages.
   [[nodiscard]] std::string RefusalSummary() const;
 
