@@ -89,8 +89,8 @@ int main(int argc, char** argv) {
     if (const char* e = std::getenv("MM_BETWEEN"); e && std::atoi(e) > 0) {
       const Features features_a = ExtractKeyframeFeatures(a, po);
       for (int im = 1; im < ib; ++im) {
-        const IntermediateView view =
-            MatchIntermediateView(features_a, cv::imread(frames[static_cast<size_t>(im)].path.string()), po);
+        const IntermediateView view = MatchIntermediateView(
+            features_a, cv::imread(frames[static_cast<size_t>(im)].path.string()), po);
         std::vector<Eigen::Vector2d> in_a, in_view;
         for (const TrackCorrespondence& c : view.correspondences) {
           in_a.push_back(c.pixel_a);
@@ -102,12 +102,14 @@ int main(int argc, char** argv) {
                     pose.success ? "posed" : pose.failure_reason.c_str(), pose.inliers,
                     pose.correspondences_on_points, pose.reprojection_rms_px);
         if (!pose.success) continue;
-        const double off = std::abs(pose.translation_from_a.norm() - 0.5 * r.geometry.translation.norm());
+        const double off =
+            std::abs(pose.translation_from_a.norm() - 0.5 * r.geometry.translation.norm());
         if (!between.empty() && off >= std::abs(between[0].translation_from_a.norm() -
                                                 0.5 * r.geometry.translation.norm())) {
           continue;
         }
-        between.assign(1, DenseView{ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});
+        between.assign(
+            1, DenseView{ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});
       }
     }
     double t0 = CpuNow();

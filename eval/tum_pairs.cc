@@ -328,9 +328,8 @@ std::string FormatPairLine(const PairEval& p) {
                   "  mesh %s (%d vertices, %d views between): coverage %.1f %%, depth err %.2f %% "
                   "(p90 %.1f %%, flying %.1f %%)",
                   p.mesh.mode.c_str(), p.mesh.vertices, p.mesh.intermediate_views,
-                  100 * p.mesh.coverage,
-                  100 * p.mesh.depth_rel_err_median, 100 * p.mesh.depth_rel_err_p90,
-                  100 * p.mesh.flying);
+                  100 * p.mesh.coverage, 100 * p.mesh.depth_rel_err_median,
+                  100 * p.mesh.depth_rel_err_p90, 100 * p.mesh.flying);
     line += buf;
   }
   if (p.has_scale) {

@@ -20,7 +20,7 @@ namespace {
 // aggregated sum stays below 8 * (2 kCostScale + P2) < 2^16.
 constexpr int kCostScale = 64;
 constexpr uint16_t kNeutralCost = kCostScale;  // ZNCC 0: no information.
-constexpr uint16_t kUnseen = 0xFFFF;            // No view has a cost yet.
+constexpr uint16_t kUnseen = 0xFFFF;           // No view has a cost yet.
 
 struct ViewInShrunkA {
   cv::Mat image;  // CV_32F, shrunk.
@@ -67,9 +67,16 @@ double SweepSpanPx(const Eigen::Matrix3d& Ks, const Eigen::Matrix3d& Ks_inv,
 // faults).
 struct PlaneCostScratch {
   explicit PlaneCostScratch(cv::Size size)
-      : warped(size, CV_32F), ww(size, CV_32F), aw(size, CV_32F), mean_w(size, CV_32F),
-        mean_ww(size, CV_32F), mean_aw(size, CV_32F), var_w(size, CV_32F),
-        numerator(size, CV_32F), denominator(size, CV_32F), zncc(size, CV_32F),
+      : warped(size, CV_32F),
+        ww(size, CV_32F),
+        aw(size, CV_32F),
+        mean_w(size, CV_32F),
+        mean_ww(size, CV_32F),
+        mean_aw(size, CV_32F),
+        var_w(size, CV_32F),
+        numerator(size, CV_32F),
+        denominator(size, CV_32F),
+        zncc(size, CV_32F),
         no_texture_w(size, CV_8U) {}
   cv::Mat warped, ww, aw, mean_w, mean_ww, mean_aw, var_w, numerator, denominator, zncc;
   cv::Mat no_texture_w;
@@ -78,9 +85,9 @@ struct PlaneCostScratch {
 // 1 - ZNCC (fixed point, 0..2 kCostScale) of A's window against the view warped into A by the
 // plane's homography H (A's pixels to the view's), for every pixel of A, with OpenCV's
 // vectorized arithmetic. A warped window without texture gets ZNCC 0.
-void PlaneCost(const cv::Mat& a, const cv::Mat& mean_a, const cv::Mat& var_a,
-               const cv::Mat& view, const Eigen::Matrix3d& H, int radius, float min_var,
-               PlaneCostScratch* s, cv::Mat* cost) {
+void PlaneCost(const cv::Mat& a, const cv::Mat& mean_a, const cv::Mat& var_a, const cv::Mat& view,
+               const Eigen::Matrix3d& H, int radius, float min_var, PlaneCostScratch* s,
+               cv::Mat* cost) {
   const cv::Size window(2 * radius + 1, 2 * radius + 1);
   cv::Mat Hcv;
   cv::eigen2cv(H, Hcv);

@@ -88,7 +88,8 @@ IntermediateView MatchIntermediateView(const Features& features_a, const cv::Mat
   IntermediateView view{image, {}};
   if (image.empty()) return view;
   const Features features = ExtractKeyframeFeatures(image, options);
-  for (const Match& m : MatchDescriptors(features_a.descriptors, features.descriptors, options.match)) {
+  for (const Match& m :
+       MatchDescriptors(features_a.descriptors, features.descriptors, options.match)) {
     const cv::Point2f& pa = features_a.keypoints[static_cast<size_t>(m.index_a)].pt;
     const cv::Point2f& pv = features.keypoints[static_cast<size_t>(m.index_b)].pt;
     view.correspondences.push_back({Eigen::Vector2d(pa.x, pa.y), Eigen::Vector2d(pv.x, pv.y)});
@@ -214,8 +215,8 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
         in_a.push_back(c.pixel_a);
         in_view.push_back(c.pixel_b);
       }
-      const ViewPose pose = EstimateViewPose(out.geometry.points_in_cam_a, out.point_pixels_a,
-                                             in_a, in_view, camera.K(), options.view_pose);
+      const ViewPose pose = EstimateViewPose(out.geometry.points_in_cam_a, out.point_pixels_a, in_a,
+                                             in_view, camera.K(), options.view_pose);
       if (!pose.success) {
         out.intermediate_failures.push_back(pose.failure_reason);
         continue;

@@ -34,7 +34,7 @@ struct TrackCorrespondence {
 /// tracks at that frame, or feature matches): its pose comes from the pair's points
 /// (recon/view_pose.h), and the dense stage sweeps over it beside B.
 struct IntermediateView {
-  cv::Mat image;  ///< BGR8 or GRAY8.
+  cv::Mat image;                                     ///< BGR8 or GRAY8.
   std::vector<TrackCorrespondence> correspondences;  ///< pixel_a in A, pixel_b in this view.
 };
 

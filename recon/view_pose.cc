@@ -72,12 +72,10 @@ ViewPose EstimateViewPose(std::span<const Eigen::Vector3d> points_in_a,
   cv::eigen2cv(K, K_cv);
   std::vector<int> inliers;
   // solvePnPRansac samples with its own fixed-seed generator (deterministic).
-  const bool found = cv::solvePnPRansac(object, image, K_cv, cv::noArray(), rvec, tvec, false,
-                                        options.ransac_iterations,
-                                        static_cast<float>(options.threshold_px), 0.999, inliers,
-                                        cv::SOLVEPNP_EPNP);
-  const double share =
-      static_cast<double>(inliers.size()) / static_cast<double>(object.size());
+  const bool found = cv::solvePnPRansac(
+      object, image, K_cv, cv::noArray(), rvec, tvec, false, options.ransac_iterations,
+      static_cast<float>(options.threshold_px), 0.999, inliers, cv::SOLVEPNP_EPNP);
+  const double share = static_cast<double>(inliers.size()) / static_cast<double>(object.size());
   if (!found || static_cast<int>(inliers.size()) < options.min_inliers ||
       share < options.min_inlier_share) {
     out.failure_reason = "view pose: " + std::to_string(inliers.size()) + " PnP inliers of " +

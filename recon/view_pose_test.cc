@@ -29,7 +29,9 @@ struct ViewScene {
       pixels_a.push_back(p);
     }
   }
-  Eigen::Vector2d Project(const Eigen::Vector3d& X) const { return (K * (R * X + t)).hnormalized(); }
+  Eigen::Vector2d Project(const Eigen::Vector3d& X) const {
+    return (K * (R * X + t)).hnormalized();
+  }
 };
 
 TEST(ViewPose, RecoversThePoseThroughNoiseAndOutliers) {
@@ -55,8 +57,8 @@ TEST(ViewPose, RecoversThePoseThroughNoiseAndOutliers) {
   EXPECT_EQ(pose.correspondences_on_points, 150);
   const double rotation_deg =
       Eigen::AngleAxisd(pose.rotation_from_a.transpose() * s.R).angle() * 180 / M_PI;
-  std::cout << "inliers " << pose.inliers << " of " << pose.correspondences_on_points
-            << ", rms " << pose.reprojection_rms_px << " px, rotation off " << rotation_deg
+  std::cout << "inliers " << pose.inliers << " of " << pose.correspondences_on_points << ", rms "
+            << pose.reprojection_rms_px << " px, rotation off " << rotation_deg
             << " deg, translation off " << (pose.translation_from_a - s.t).norm() << "\n";
   // 38 of the 150 are wrong (every 4th); with 0.5 px noise the other 112 are within 2 px.
   EXPECT_GE(pose.inliers, 110);
@@ -80,10 +82,12 @@ TEST(ViewPose, SaysWhyItHasNoPose) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> anywhere(0, 480);
   pixels_view.clear();
-  for (size_t i = 0; i < s.points.size(); ++i) pixels_view.emplace_back(anywhere(rng), anywhere(rng));
+  for (size_t i = 0; i < s.points.size(); ++i)
+    pixels_view.emplace_back(anywhere(rng), anywhere(rng));
   pose = EstimateViewPose(s.points, s.pixels_a, s.pixels_a, pixels_view, s.K, ViewPoseOptions{});
   EXPECT_FALSE(pose.success);
-  EXPECT_NE(pose.failure_reason.find("PnP inliers of 300"), std::string::npos) << pose.failure_reason;
+  EXPECT_NE(pose.failure_reason.find("PnP inliers of 300"), std::string::npos)
+      << pose.failure_reason;
   ViewPoseOptions bad;
   bad.threshold_px = 0;
   EXPECT_FALSE(EstimateViewPose(s.points, s.pixels_a, s.pixels_a, pixels_view, s.K, bad).success);
