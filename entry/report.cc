@@ -59,6 +59,13 @@ T Integer(const json& j, const char* key) {
   return *value;
 }
 
+// "reason; reason" of the intermediate views the dense stage left out.
+std::string JoinLeftOut(const std::vector<std::string>& reasons) {
+  std::string out;
+  for (const std::string& reason : reasons) out += (out.empty() ? "" : "; ") + reason;
+  return out;
+}
+
 // Sets *out from j[key] when the key is there (nlohmann throws on a type mismatch; an integer
 // field goes through Integer).
 template <typename T>
@@ -215,6 +222,8 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
   report.meshing = {.mode = MeshModeName(r.mesh_mode),
                     .dense_valid_fraction = r.dense_valid_fraction,
                     .dense_planes = r.dense_planes,
+                    .dense_views_between = r.intermediate_views_used,
+                    .dense_views_left_out = JoinLeftOut(r.intermediate_failures),
                     .dense_dropped_no_depth = r.dense_mesh_summary.dropped_no_depth,
                     .dense_dropped_bridging = r.dense_mesh_summary.dropped_bridging,
                     .dense_dropped_discontinuity = r.dense_mesh_summary.dropped_discontinuity,
@@ -311,6 +320,8 @@ json ToJson(const EntryReport& r) {
   report["meshing"] = {{"mode", m.mode},
                        {"dense_valid_fraction", m.dense_valid_fraction},
                        {"dense_planes", m.dense_planes},
+                       {"dense_views_between", m.dense_views_between},
+                       {"dense_views_left_out", m.dense_views_left_out},
                        {"dense_dropped_no_depth", m.dense_dropped_no_depth},
                        {"dense_dropped_bridging", m.dense_dropped_bridging},
                        {"dense_dropped_discontinuity", m.dense_dropped_discontinuity},
@@ -424,6 +435,8 @@ std::string FromJson(const json& j, EntryReport* out) {
     Read(m, "mode", &r.meshing.mode);
     Read(m, "dense_valid_fraction", &r.meshing.dense_valid_fraction);
     Read(m, "dense_planes", &r.meshing.dense_planes);
+    Read(m, "dense_views_between", &r.meshing.dense_views_between);
+    Read(m, "dense_views_left_out", &r.meshing.dense_views_left_out);
     Read(m, "dense_dropped_no_depth", &r.meshing.dense_dropped_no_depth);
     Read(m, "dense_dropped_bridging", &r.meshing.dense_dropped_bridging);
     Read(m, "dense_dropped_discontinuity", &r.meshing.dense_dropped_discontinuity);

@@ -178,8 +178,9 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
     if (step != CaptureSession::Step::kSubmitB) continue;
     std::vector<TrackCorrespondence> tracks;
     if (options.use_tracks) tracks = session.Tracks();
+    const std::vector<IntermediateView> between = session.Between();
     const auto start = Clock::now();
-    pending = ReconstructPair(features_a, image_a, undistorted, cam, options.pair, tracks);
+    pending = ReconstructPair(features_a, image_a, undistorted, cam, options.pair, tracks, between);
     current.recon_wall_s = SecondsSince(start);
     result_at = t + latency(current.recon_wall_s);
     worker_free_at = result_at;

@@ -4,7 +4,8 @@
 // image, GT = the median of the 2x2 full-resolution block), the mesh's figures
 // (EvaluatePairMesh), the far-off pixels (> 10 %) by class, and PNGs in OUT_DIR: A, the dense
 // and the GT inverse depth (one colour scale), the error map and the confidence.
-// MM_HOLE=<fraction> in the environment overrides DenseOptions::max_hole_fraction.
+// MM_HOLE=<fraction> in the environment overrides DenseOptions::max_hole_fraction; MM_BETWEEN=1
+// adds the keyframe nearest halfway between as a further view (as the pipeline does).
 // Classes, first that applies: out of the sweep's range; B does not see the GT point (outside
 // B's image); B sees something nearer there (occluded: a z-buffer of A's GT depth in B); next
 // to a GT depth edge (within the window); low texture (A's window std < 4 grey levels); other.
@@ -75,21 +76,52 @@ int main(int argc, char** argv) {
     const cv::Mat b = cv::imread(frames[static_cast<size_t>(ib)].path.string());
     PairOptions po;
     if (const char* e = std::getenv("MM_HOLE")) po.dense.max_hole_fraction = std::atof(e);
-    const PairReconstruction r = ReconstructPair(a, b, camera, po);
+    if (const char* e = std::getenv("MM_CAP")) po.dense.max_view_disagreement = std::atof(e);
+    PairReconstruction r = ReconstructPair(a, b, camera, po);
     if (!r.success) {
       std::printf("(0,%d) failed: %s\n", ib, r.failure_reason.c_str());
       continue;
     }
-    const MeshDepthEval me = EvaluatePairMesh(r, camera.K(), gt);
     const cv::Mat ga = ToGray(a), gb = ToGray(b);
+    // MM_BETWEEN=1: the keyframe nearest halfway between 0 and b joins the sweep as in the
+    // pipeline (SIFT matches to A, PnP on the pair's points).
+    std::vector<DenseView> between;
+    if (const char* e = std::getenv("MM_BETWEEN"); e && std::atoi(e) > 0) {
+      const Features features_a = ExtractKeyframeFeatures(a, po);
+      for (int im = 1; im < ib; ++im) {
+        const IntermediateView view = MatchIntermediateView(
+            features_a, cv::imread(frames[static_cast<size_t>(im)].path.string()), po);
+        std::vector<Eigen::Vector2d> in_a, in_view;
+        for (const TrackCorrespondence& c : view.correspondences) {
+          in_a.push_back(c.pixel_a);
+          in_view.push_back(c.pixel_b);
+        }
+        const ViewPose pose = EstimateViewPose(r.geometry.points_in_cam_a, r.point_pixels_a, in_a,
+                                               in_view, camera.K(), po.view_pose);
+        std::printf("  keyframe %d: %s (%d of %d inliers, %.2f px)\n", im,
+                    pose.success ? "posed" : pose.failure_reason.c_str(), pose.inliers,
+                    pose.correspondences_on_points, pose.reprojection_rms_px);
+        if (!pose.success) continue;
+        const double off =
+            std::abs(pose.translation_from_a.norm() - 0.5 * r.geometry.translation.norm());
+        if (!between.empty() && off >= std::abs(between[0].translation_from_a.norm() -
+                                                0.5 * r.geometry.translation.norm())) {
+          continue;
+        }
+        between.assign(
+            1, DenseView{ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});
+      }
+    }
     double t0 = CpuNow();
     DenseDepth d{};
     constexpr int kRuns = 3;
     for (int run = 0; run < kRuns; ++run) {
       d = ComputeDenseDepth(ga, gb, camera.K(), r.geometry.rotation, r.geometry.translation,
-                            r.geometry.points_in_cam_a, po.dense);
+                            r.geometry.points_in_cam_a, po.dense, between);
     }
     const double dense_s = (CpuNow() - t0) / kRuns;
+    r.mesh = BuildDenseMesh(d, camera.K(), a.cols, a.rows, po.dense_mesh, &r.dense_mesh_summary);
+    const MeshDepthEval me = EvaluatePairMesh(r, camera.K(), gt);
     const double scale = ScaleFromPoints(r.geometry.points_in_cam_a, r.point_pixels_a, gt);
     const int f = d.downscale, w = d.inverse_depth.cols, h = d.inverse_depth.rows;
     // GT inverse depth (reconstruction units) per shrunk pixel.

@@ -31,6 +31,7 @@ struct MeshFigures {
   std::string mode;     ///< The mesh the pair got: "dense" or "sparse".
   int vertices = 0;
   int triangles = 0;
+  int intermediate_views = 0;  ///< Frames between A and B the dense sweep used.
 };
 
 struct EvalOptions {
@@ -40,6 +41,10 @@ struct EvalOptions {
   double max_depth_dt_s = 0.02;    ///< A depth map belongs to a frame within this time.
   double max_gt_dt_s = 0.1;        ///< Ground-truth extrapolation limit.
   PairOptions pair;                ///< The reconstruction's options.
+  /// Pairs more than one frame apart get the middle frame(s) of the list between them as
+  /// intermediate views for the dense stage (it takes the one nearest halfway), their
+  /// correspondences with A by SIFT matching (in the appliance: the gate's tracks).
+  bool intermediate_view = true;
   bool mesh_figures = false;       ///< Mesh figures where depth is known (EvaluatePairMesh).
   /// Metric scale per pair (scale/metric_scale.h); source none: no scale figures. The
   /// odometry is simulated from the ground truth: each keyframe's camera centre plus

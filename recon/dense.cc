@@ -20,6 +20,13 @@ namespace {
 // aggregated sum stays below 8 * (2 kCostScale + P2) < 2^16.
 constexpr int kCostScale = 64;
 constexpr uint16_t kNeutralCost = kCostScale;  // ZNCC 0: no information.
+constexpr uint16_t kUnseen = 0xFFFF;           // No view has a cost yet.
+
+struct ViewInShrunkA {
+  cv::Mat image;  // CV_32F, shrunk.
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+};
 
 // The camera matrix of an image shrunk by `f` (pixel centres: u_s = (u + 0.5) / f - 0.5).
 Eigen::Matrix3d ShrinkK(const Eigen::Matrix3d& K, int f) {
@@ -35,6 +42,122 @@ Eigen::Matrix3d PlaneHomography(const Eigen::Matrix3d& K, const Eigen::Matrix3d&
   Eigen::Matrix3d M = R;
   M.col(2) += t * rho;
   return K * M * K_inv;
+}
+
+// How far the sweep's range moves a pixel of A in the view (x_view = R x_a + t): the
+// largest displacement between the nearest and the farthest plane over a 5x5 grid of A.
+double SweepSpanPx(const Eigen::Matrix3d& Ks, const Eigen::Matrix3d& Ks_inv,
+                   const Eigen::Matrix3d& R, const Eigen::Vector3d& t, double rho_min,
+                   double rho_max, cv::Size size) {
+  double span = 0;
+  for (int gy = 0; gy <= 4; ++gy) {
+    for (int gx = 0; gx <= 4; ++gx) {
+      const Eigen::Vector3d ray =
+          Ks_inv * Eigen::Vector3d(gx * (size.width - 1) / 4.0, gy * (size.height - 1) / 4.0, 1.0);
+      const Eigen::Vector3d near_view = Ks * (R * ray + t * rho_max);
+      const Eigen::Vector3d far_view = Ks * (R * ray + t * rho_min);
+      if (near_view.z() <= 0 || far_view.z() <= 0) continue;
+      span = std::max(span, (near_view.hnormalized() - far_view.hnormalized()).norm());
+    }
+  }
+  return span;
+}
+
+// Per-plane images, allocated once per sweep (a fresh large allocation per plane costs page
+// faults).
+struct PlaneCostScratch {
+  explicit PlaneCostScratch(cv::Size size)
+      : warped(size, CV_32F),
+        ww(size, CV_32F),
+        aw(size, CV_32F),
+        mean_w(size, CV_32F),
+        mean_ww(size, CV_32F),
+        mean_aw(size, CV_32F),
+        var_w(size, CV_32F),
+        numerator(size, CV_32F),
+        denominator(size, CV_32F),
+        zncc(size, CV_32F),
+        no_texture_w(size, CV_8U) {}
+  cv::Mat warped, ww, aw, mean_w, mean_ww, mean_aw, var_w, numerator, denominator, zncc;
+  cv::Mat no_texture_w;
+};
+
+// 1 - ZNCC (fixed point, 0..2 kCostScale) of A's window against the view warped into A by the
+// plane's homography H (A's pixels to the view's), for every pixel of A, with OpenCV's
+// vectorized arithmetic. A warped window without texture gets ZNCC 0.
+void PlaneCost(const cv::Mat& a, const cv::Mat& mean_a, const cv::Mat& var_a, const cv::Mat& view,
+               const Eigen::Matrix3d& H, int radius, float min_var, PlaneCostScratch* s,
+               cv::Mat* cost) {
+  const cv::Size window(2 * radius + 1, 2 * radius + 1);
+  cv::Mat Hcv;
+  cv::eigen2cv(H, Hcv);
+  cv::warpPerspective(view, s->warped, Hcv, a.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_REPLICATE);
+  cv::multiply(s->warped, s->warped, s->ww);
+  cv::multiply(a, s->warped, s->aw);
+  cv::boxFilter(s->warped, s->mean_w, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::boxFilter(s->ww, s->mean_ww, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::boxFilter(s->aw, s->mean_aw, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::multiply(s->mean_w, s->mean_w, s->var_w);
+  cv::subtract(s->mean_ww, s->var_w, s->var_w);
+  cv::multiply(mean_a, s->mean_w, s->numerator);
+  cv::subtract(s->mean_aw, s->numerator, s->numerator);
+  cv::multiply(var_a, s->var_w, s->denominator);
+  cv::max(s->denominator, 1e-12, s->denominator);
+  cv::sqrt(s->denominator, s->denominator);
+  cv::divide(s->numerator, s->denominator, s->zncc);
+  cv::compare(s->var_w, min_var, s->no_texture_w, cv::CMP_LT);
+  s->zncc.setTo(0.0f, s->no_texture_w);
+  s->zncc.convertTo(*cost, CV_16U, -kCostScale, kCostScale);  // Rounded, saturated at 0.
+  cv::min(*cost, 2 * kCostScale, *cost);
+}
+
+// Adds one view's plane costs to the plane's slice of the volume (plane-major) at A's textured
+// pixels that the view sees under H: the first view's (B's) cost as it is; a further view's,
+// where B has one, as their mean while they differ by at most `cap`, else as the better one's
+// plus cap / 2 (DenseOptions::max_view_disagreement).
+void AccumulatePlaneCost(const cv::Mat& cost, const Eigen::Matrix3d& H, const cv::Mat& textured,
+                         int cap, uint16_t* plane) {
+  const int width = cost.cols, height = cost.rows;
+  const auto cap_f = static_cast<float>(cap);
+  const Eigen::Vector3d dh = H.col(0);
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* tex = textured.ptr<uint8_t>(y);
+    const uint16_t* c_row = cost.ptr<uint16_t>(y);
+    uint16_t* out_row = plane + static_cast<size_t>(y) * width;
+    // The row's pixels the view sees: its homogeneous pixel h(x) = H (x, y, 1) has z > 0 and
+    // 0 <= u, v <= size - 1, each an affine inequality c0 + c1 x >= 0, so an interval of x.
+    const Eigen::Vector3d h0 = H * Eigen::Vector3d(0, y, 1);
+    double lo = 0, hi = width - 1;
+    auto require = [&lo, &hi](double c0, double c1) {
+      if (c1 > 0) {
+        lo = std::max(lo, -c0 / c1);
+      } else if (c1 < 0) {
+        hi = std::min(hi, -c0 / c1);
+      } else if (c0 < 0) {
+        hi = -1;
+      }
+    };
+    require(h0.z() - 1e-9, dh.z());
+    require(h0.x(), dh.x());
+    require((width - 1) * h0.z() - h0.x(), (width - 1) * dh.z() - dh.x());
+    require(h0.y(), dh.y());
+    require((height - 1) * h0.z() - h0.y(), (height - 1) * dh.z() - dh.y());
+    const int x0 = static_cast<int>(std::ceil(lo)), x1 = static_cast<int>(std::floor(hi));
+    for (int x = x0; x <= x1; ++x) {
+      if (!tex[x]) continue;
+      const uint16_t c = c_row[x];
+      uint16_t& o = out_row[x];
+      if (o == kUnseen) {
+        o = c;
+      } else {
+        // Their mean where they agree within the cap, else the better one plus half the cap.
+        const float diff = std::abs(static_cast<float>(c) - static_cast<float>(o));
+        o = static_cast<uint16_t>(static_cast<float>(std::min(o, c)) +
+                                  0.5f * std::min(diff, cap_f) + 0.5f);
+      }
+    }
+  }
 }
 
 // Median of the valid 3x3 neighbours of each valid pixel (removes single-pixel spikes of the
@@ -140,6 +263,9 @@ std::string DenseOptions::Check() const {
     return "dense.max_speckle_fraction must be in [0, 1)";
   }
   if (speckle_planes < 0 || speckle_planes > 16) return "dense.speckle_planes must be in [0, 16]";
+  if (!(max_view_disagreement >= 0 && max_view_disagreement <= 2)) {
+    return "dense.max_view_disagreement must be in [0, 2]";
+  }
   if (!(max_hole_fraction >= 0 && max_hole_fraction < 1)) {
     return "dense.max_hole_fraction must be in [0, 1)";
   }
@@ -150,7 +276,7 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
                              const Eigen::Matrix3d& rotation_b_from_a,
                              const Eigen::Vector3d& translation_b_from_a,
                              std::span<const Eigen::Vector3d> sparse_points_in_cam_a,
-                             const DenseOptions& options) {
+                             const DenseOptions& options, std::span<const DenseView> extra_views) {
   DenseDepth out;
   if (const std::string error = options.Check(); !error.empty()) {
     out.failure_reason = error;
@@ -192,17 +318,7 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   const Eigen::Vector3d& t = translation_b_from_a;
 
   // Planes: enough that neighbouring ones move A's pixels by about plane_step_px in B.
-  double span = 0;
-  for (int gy = 0; gy <= 4; ++gy) {
-    for (int gx = 0; gx <= 4; ++gx) {
-      const Eigen::Vector3d ray =
-          Ks_inv * Eigen::Vector3d(gx * (width - 1) / 4.0, gy * (height - 1) / 4.0, 1.0);
-      const Eigen::Vector3d near_b = Ks * (R * ray + t * rho_max);
-      const Eigen::Vector3d far_b = Ks * (R * ray + t * rho_min);
-      if (near_b.z() <= 0 || far_b.z() <= 0) continue;
-      span = std::max(span, (near_b.hnormalized() - far_b.hnormalized()).norm());
-    }
-  }
+  const double span = SweepSpanPx(Ks, Ks_inv, R, t, rho_min, rho_max, a8.size());
   const int planes = std::clamp(static_cast<int>(std::ceil(span / options.plane_step_px)) + 1,
                                 options.min_planes, options.max_planes);
   const double rho_step = (rho_max - rho_min) / (planes - 1);
@@ -232,51 +348,53 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   // plane-major costs live in the sum's volume until the transpose.
   thread_local std::vector<uint16_t> cost, sum;
   std::vector<uint16_t>& cost_by_plane = sum;
-  cost_by_plane.assign(pixels * planes, kNeutralCost);
-  // Per-plane images allocated once (a fresh large allocation per plane costs page faults).
-  cv::Mat warped(a.size(), CV_32F), ww(a.size(), CV_32F), aw(a.size(), CV_32F);
-  cv::Mat mean_w(a.size(), CV_32F), mean_ww(a.size(), CV_32F), mean_aw(a.size(), CV_32F);
-  for (int d = 0; d < planes; ++d) {
-    const Eigen::Matrix3d H = PlaneHomography(Ks, Ks_inv, R, t, rho_min + d * rho_step);
-    cv::Mat Hcv;
-    cv::eigen2cv(H, Hcv);
-    cv::warpPerspective(b, warped, Hcv, a.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                        cv::BORDER_REPLICATE);
-    cv::multiply(warped, warped, ww);
-    cv::multiply(a, warped, aw);
-    cv::boxFilter(warped, mean_w, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-    cv::boxFilter(ww, mean_ww, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-    cv::boxFilter(aw, mean_aw, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-    const Eigen::Matrix3f Hf = H.cast<float>();
-    for (int y = 0; y < height; ++y) {
-      const float* ma = mean_a.ptr<float>(y);
-      const float* va = var_a.ptr<float>(y);
-      const float* mw = mean_w.ptr<float>(y);
-      const float* mww = mean_ww.ptr<float>(y);
-      const float* maw = mean_aw.ptr<float>(y);
-      const uint8_t* tex = textured.ptr<uint8_t>(y);
-      uint16_t* out_row =
-          &cost_by_plane[static_cast<size_t>(d) * pixels + static_cast<size_t>(y) * width];
-      // B's pixel for (x, y) under H: pixels that B does not see keep the neutral cost.
-      const Eigen::Vector3f row0 = Hf * Eigen::Vector3f(0, static_cast<float>(y), 1);
-      const Eigen::Vector3f dcol = Hf.col(0);
-      for (int x = 0; x < width; ++x) {
-        if (!tex[x]) continue;
-        const Eigen::Vector3f hb = row0 + static_cast<float>(x) * dcol;
-        if (hb.z() <= 0) continue;
-        const float ub = hb.x() / hb.z(), vb = hb.y() / hb.z();
-        if (ub < 0 || vb < 0 || ub > static_cast<float>(width - 1) ||
-            vb > static_cast<float>(height - 1)) {
-          continue;
-        }
-        const float var_w = mww[x] - mw[x] * mw[x];
-        float zncc = 0;
-        if (var_w >= min_var) zncc = (maw[x] - ma[x] * mw[x]) / std::sqrt(va[x] * var_w);
-        zncc = std::clamp(zncc, -1.0f, 1.0f);
-        out_row[x] = static_cast<uint16_t>((1.0f - zncc) * kCostScale + 0.5f);
+  cost_by_plane.assign(pixels * planes, kUnseen);
+  // B, then the further views: each view's cost is computed at every plane that moves a
+  // pixel by about plane_step_px in it (B's sampling; a view nearer A moves pixels less, so
+  // every k-th plane, linearly interpolated between), and combined into the volume.
+  std::vector<ViewInShrunkA> views;
+  views.push_back({b, R, t});
+  for (const DenseView& view : extra_views) {
+    cv::Mat v8 = view.gray, vf;
+    if (f > 1) cv::resize(view.gray, v8, a8.size(), 0, 0, cv::INTER_AREA);
+    v8.convertTo(vf, CV_32F);
+    views.push_back({vf, view.rotation_from_a, view.translation_from_a});
+  }
+  const int disagreement_cap =
+      static_cast<int>(std::lround(options.max_view_disagreement * kCostScale));
+  PlaneCostScratch scratch(a.size());
+  cv::Mat previous_cost(a.size(), CV_16U), current_cost(a.size(), CV_16U);
+  cv::Mat blended_cost(a.size(), CV_16U);
+  for (size_t v = 0; v < views.size(); ++v) {
+    const ViewInShrunkA& view = views[v];
+    auto homography = [&](int d) {
+      return PlaneHomography(Ks, Ks_inv, view.rotation, view.translation, rho_min + d * rho_step);
+    };
+    int stride = 1;
+    if (v > 0) {
+      const double view_span =
+          SweepSpanPx(Ks, Ks_inv, view.rotation, view.translation, rho_min, rho_max, a.size());
+      const int view_planes = static_cast<int>(std::ceil(view_span / options.plane_step_px)) + 1;
+      stride = std::max(1, (planes - 1) / std::max(1, view_planes - 1));
+    }
+    auto accumulate = [&](int d, const cv::Mat& plane_cost) {
+      AccumulatePlaneCost(plane_cost, homography(d), textured, disagreement_cap,
+                          &cost_by_plane[static_cast<size_t>(d) * pixels]);
+    };
+    int previous_d = -1;
+    for (int d = 0; d < planes; d = (d == planes - 1) ? planes : std::min(d + stride, planes - 1)) {
+      PlaneCost(a, mean_a, var_a, view.image, homography(d), r, min_var, &scratch, &current_cost);
+      for (int between = previous_d + 1; previous_d >= 0 && between < d; ++between) {
+        const double w = static_cast<double>(between - previous_d) / (d - previous_d);
+        cv::addWeighted(previous_cost, 1.0 - w, current_cost, w, 0.0, blended_cost, CV_16U);
+        accumulate(between, blended_cost);
       }
+      accumulate(d, current_cost);
+      std::swap(previous_cost, current_cost);
+      previous_d = d;
     }
   }
+  std::replace(cost_by_plane.begin(), cost_by_plane.end(), kUnseen, kNeutralCost);
   cost.resize(pixels * planes);
   constexpr size_t kBlock = 64;
   for (size_t p0 = 0; p0 < pixels; p0 += kBlock) {

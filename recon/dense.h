@@ -5,7 +5,10 @@
 // image paths (Hirschmueller, PAMI 2008), winner-take-all with a parabola for the sub-plane
 // position. The sweep warps B into A by the plane's homography H = K (R + t rho e3^T) K^-1, so
 // it needs no rectification and works for sideways and forward motion alike (the epipole may
-// lie inside the image). A pixel keeps its depth when the aggregated cost has a clear minimum,
+// lie inside the image). Further views (frames between A and B, posed by recon/view_pose.h)
+// are swept the same way and their costs combined with B's per pixel and plane: where the views
+// agree they average, where one does not see the point (occluded in it) the better one counts.
+// A pixel keeps its depth when the aggregated cost has a clear minimum,
 // its window is textured and matches B at that depth, or it is textureless and its depth came
 // from textured neighbours; small isolated regions are removed (speckle filter) and small holes
 // inside a surface are filled from their border.
@@ -55,6 +58,12 @@ struct DenseOptions {
   /// surrounded by depth are filled from their border, inward (isolated rejects inside a
   /// surface); larger ones stay holes.
   double max_hole_fraction = 0.002;
+  /// With further views (frames between A and B) a pixel's cost at a plane is the better
+  /// view's plus half the difference up to this cap (1 - ZNCC units): views that agree are
+  /// averaged (less noise), and a view that does not see the point (occluded in it, or A's
+  /// window straddles an edge there) costs at most cap / 2 (Kang, Szeliski & Chai, CVPR 2001,
+  /// take the better views for the same reason).
+  double max_view_disagreement = 0.125;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -75,14 +84,24 @@ struct DenseDepth {
   double valid_fraction = 0;      ///< Share of the shrunk image with a depth.
 };
 
+/// A further view of A's scene (a frame between A and B): its grey image (size of A's) and
+/// pose, x_view = R x_a + t in the units of B's translation.
+struct DenseView {
+  cv::Mat gray;
+  Eigen::Matrix3d rotation_from_a = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation_from_a = Eigen::Vector3d::Zero();
+};
+
 /// Inverse depth of keyframe A. `gray_a`, `gray_b`: undistorted 8-bit grey images of one size
 /// seen through K; `rotation_b_from_a`, `translation_b_from_a`: x_b = R x_a + t;
-/// `sparse_points_in_cam_a`: the triangulated points (for the depth range; >= 10 in front).
+/// `sparse_points_in_cam_a`: the triangulated points (for the depth range; >= 10 in front);
+/// `extra_views`: further views of the scene in the same units (B sets the planes).
 DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const Eigen::Matrix3d& K,
                              const Eigen::Matrix3d& rotation_b_from_a,
                              const Eigen::Vector3d& translation_b_from_a,
                              std::span<const Eigen::Vector3d> sparse_points_in_cam_a,
-                             const DenseOptions& options);
+                             const DenseOptions& options,
+                             std::span<const DenseView> extra_views = {});
 
 /// Inverse depth at a full-resolution pixel of A (bilinear in the shrunk map over the valid
 /// neighbours, the nearest one across a depth edge); 0 when the nearest has no depth.

@@ -32,6 +32,7 @@ int KeyframeGate::Start(const cv::Mat& gray_a) {
   points_prev_ = points_a_;
   previous_ = gray_a.clone();
   target_parallax_deg_ = options_.parallax_deg;
+  halfway_ = GateWaypoint{};
   return static_cast<int>(points_a_.size());
 }
 
@@ -96,6 +97,12 @@ GateDecision KeyframeGate::Update(const cv::Mat& gray) {
   d.homography_inliers = probe.classification.h_inliers;
   d.median_parallax_deg = probe.median_triangulation_angle_deg;
   d.failure = probe.failure;
+  // About halfway to B: an angle up to half the required one, or no angle measured yet.
+  const bool measured = d.median_parallax_deg > 0;
+  if ((measured && d.median_parallax_deg <= 0.5 * target_parallax_deg_) ||
+      (!measured && !(halfway_.parallax_deg > 0))) {
+    halfway_ = GateWaypoint{previous_, points_a_, points_prev_, d.median_parallax_deg};
+  }
   // The probe already held the angle against the reconstruction's minimum.
   const bool running_out =
       d.tracks < options_.early_b_tracks && target_parallax_deg_ <= options_.parallax_deg;

@@ -64,6 +64,15 @@ struct GateDecision {
   std::string reason;                ///< Why B was not taken (or why the track was lost).
 };
 
+/// A frame the gate tracked through, with its tracks: where each started in A and where it
+/// is in the frame (undistorted pixels, index-aligned).
+struct GateWaypoint {
+  cv::Mat gray;
+  std::vector<cv::Point2f> origins_a;
+  std::vector<cv::Point2f> positions;
+  double parallax_deg = 0;  ///< The gate's median triangulation angle at it (0: none measured).
+};
+
 class KeyframeGate {
  public:
   /// `K`: intrinsics of the (undistorted) frames.
@@ -79,6 +88,9 @@ class KeyframeGate {
   /// (undistorted pixels, index-aligned).
   [[nodiscard]] const std::vector<cv::Point2f>& track_origins_a() const { return points_a_; }
   [[nodiscard]] const std::vector<cv::Point2f>& track_positions() const { return points_prev_; }
+  /// The last frame at which the tracks' angle was at most half the required one: about
+  /// halfway to B, a further view for the dense stage. Empty before the first Update.
+  [[nodiscard]] const GateWaypoint& halfway() const { return halfway_; }
 
   /// Raises the angle the next B must reach (a later B after the reconstruction refused one);
   /// Start resets it to options.parallax_deg.
@@ -92,6 +104,7 @@ class KeyframeGate {
   cv::Mat previous_;                     // Last gray frame.
   std::vector<cv::Point2f> points_a_;    // Track origins in A.
   std::vector<cv::Point2f> points_prev_; // The same tracks in the previous frame.
+  GateWaypoint halfway_;
 };
 
 }  // namespace mm

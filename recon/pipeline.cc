@@ -10,6 +10,7 @@
 #include "base/clock.h"
 
 namespace mm {
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -67,16 +68,33 @@ const char* MeshModeName(MeshMode mode) { return mode == MeshMode::kDense ? "den
 std::string PairOptions::Check() const {
   for (const std::string& problem :
        {sift.Check(), match.Check(), two_view.Check(), refinement.Check(), mesh.Check(),
-        dense.Check(), dense_mesh.Check()}) {
+        dense.Check(), dense_mesh.Check(), view_pose.Check()}) {
     if (!problem.empty()) return problem;
   }
   if (!(track_duplicate_px >= 0)) return "track_duplicate_px: must be >= 0";
+  if (max_intermediate_views < 0 || max_intermediate_views > 8) {
+    return "max_intermediate_views: must be in [0, 8]";
+  }
   return {};
 }
 
 Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options) {
   if (image.empty()) return {};
   return ExtractSift(ToGray(image), options.sift);
+}
+
+IntermediateView MatchIntermediateView(const Features& features_a, const cv::Mat& image,
+                                       const PairOptions& options) {
+  IntermediateView view{image, {}};
+  if (image.empty()) return view;
+  const Features features = ExtractKeyframeFeatures(image, options);
+  for (const Match& m :
+       MatchDescriptors(features_a.descriptors, features.descriptors, options.match)) {
+    const cv::Point2f& pa = features_a.keypoints[static_cast<size_t>(m.index_a)].pt;
+    const cv::Point2f& pv = features.keypoints[static_cast<size_t>(m.index_b)].pt;
+    view.correspondences.push_back({Eigen::Vector2d(pa.x, pa.y), Eigen::Vector2d(pv.x, pv.y)});
+  }
+  return view;
 }
 
 namespace {
@@ -112,7 +130,8 @@ void ScalePairReconstruction(double metres_per_unit, PairReconstruction* pair) {
 }
 
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
-                                   const BouguetCamera& camera, const PairOptions& options) {
+                                   const BouguetCamera& camera, const PairOptions& options,
+                                   std::span<const IntermediateView> between) {
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
     PairReconstruction out;
     out.failure_reason = "keyframes are empty or of different sizes";
@@ -121,7 +140,8 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
   const auto start = Clock::now();
   const Features features_a = ExtractKeyframeFeatures(image_a, options);
   const double features_a_s = SecondsSince(start);
-  PairReconstruction out = ReconstructPair(features_a, image_a, image_b, camera, options);
+  PairReconstruction out =
+      ReconstructPair(features_a, image_a, image_b, camera, options, {}, between);
   out.times.features_a_s = features_a_s;
   return out;
 }
@@ -129,7 +149,8 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
 PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
                                    const cv::Mat& image_b, const BouguetCamera& camera,
                                    const PairOptions& options,
-                                   std::span<const TrackCorrespondence> tracks) {
+                                   std::span<const TrackCorrespondence> tracks,
+                                   std::span<const IntermediateView> between) {
   PairReconstruction out;
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
     out.failure_reason = "keyframes are empty or of different sizes";
@@ -179,9 +200,43 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
 
   if (options.mesh_mode == MeshMode::kDense) {
     start = Clock::now();
-    const DenseDepth depth =
-        ComputeDenseDepth(gray_a, gray_b, camera.K(), out.geometry.rotation,
-                          out.geometry.translation, out.geometry.points_in_cam_a, options.dense);
+    // The intermediate views' poses from the pair's points (PnP).
+    std::vector<DenseView> views;
+    out.intermediate_views = static_cast<int>(between.size());
+    for (const IntermediateView& view : between) {
+      if (view.image.size() != image_a.size()) {
+        out.intermediate_failures.emplace_back("intermediate view of another size");
+        continue;
+      }
+      std::vector<Eigen::Vector2d> in_a, in_view;
+      in_a.reserve(view.correspondences.size());
+      in_view.reserve(view.correspondences.size());
+      for (const TrackCorrespondence& c : view.correspondences) {
+        in_a.push_back(c.pixel_a);
+        in_view.push_back(c.pixel_b);
+      }
+      const ViewPose pose = EstimateViewPose(out.geometry.points_in_cam_a, out.point_pixels_a, in_a,
+                                             in_view, camera.K(), options.view_pose);
+      if (!pose.success) {
+        out.intermediate_failures.push_back(pose.failure_reason);
+        continue;
+      }
+      views.push_back({ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});
+    }
+    const double half_baseline = 0.5 * out.geometry.translation.norm();
+    auto off_halfway = [half_baseline](const DenseView& v) {
+      return std::abs(v.translation_from_a.norm() - half_baseline);
+    };
+    std::stable_sort(views.begin(), views.end(), [&](const DenseView& l, const DenseView& r) {
+      return off_halfway(l) < off_halfway(r);
+    });
+    if (views.size() > static_cast<size_t>(options.max_intermediate_views)) {
+      views.resize(static_cast<size_t>(options.max_intermediate_views));
+    }
+    out.intermediate_views_used = static_cast<int>(views.size());
+    const DenseDepth depth = ComputeDenseDepth(gray_a, gray_b, camera.K(), out.geometry.rotation,
+                                               out.geometry.translation,
+                                               out.geometry.points_in_cam_a, options.dense, views);
     out.times.dense_s = SecondsSince(start);
     out.dense_valid_fraction = depth.valid_fraction;
     out.dense_planes = depth.planes;

@@ -19,6 +19,7 @@
 #include "recon/mesh.h"
 #include "recon/point_refinement.h"
 #include "recon/two_view.h"
+#include "recon/view_pose.h"
 
 namespace mm {
 
@@ -27,6 +28,14 @@ namespace mm {
 struct TrackCorrespondence {
   Eigen::Vector2d pixel_a;
   Eigen::Vector2d pixel_b;
+};
+
+/// A frame between A and B (undistorted, A's size) with correspondences to A (the gate's
+/// tracks at that frame, or feature matches): its pose comes from the pair's points
+/// (recon/view_pose.h), and the dense stage sweeps over it beside B.
+struct IntermediateView {
+  cv::Mat image;                                     ///< BGR8 or GRAY8.
+  std::vector<TrackCorrespondence> correspondences;  ///< pixel_a in A, pixel_b in this view.
 };
 
 /// Which mesh a pair gets: the dense one (recon/dense_mesh.h, from the dense depth of A) or the
@@ -49,6 +58,11 @@ struct PairOptions {
   /// Tracks join the SIFT matches as correspondences; a track whose A pixel lies within this
   /// of a matched SIFT keypoint in A is the same point twice and is left out.
   double track_duplicate_px = 2.0;
+  ViewPoseOptions view_pose;  ///< Intermediate views' poses.
+  /// Of the intermediate views whose pose was found, the dense sweep takes this many: those
+  /// whose distance from A is nearest half of B's (each view's sweep costs about as much as
+  /// B's; halfway, the view sees much of what B's occludes, and with a different baseline).
+  int max_intermediate_views = 1;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -88,6 +102,11 @@ struct PairReconstruction {
   std::vector<Eigen::Vector3d> dense_points_in_a;
   int dense_planes = 0;
   std::string dense_failure_reason;
+  /// Intermediate views given, and those whose pose was found and joined the dense sweep
+  /// (the others' reasons in intermediate_failures).
+  int intermediate_views = 0;
+  int intermediate_views_used = 0;
+  std::vector<std::string> intermediate_failures;
   StageTimes times;
 
   /// The scene's surfaces as points in A's frame: the dense depth's when there is one (the
@@ -101,7 +120,8 @@ struct PairReconstruction {
 /// Reconstructs a pair of undistorted frames (BGR8 or GRAY8) seen through `camera` (no
 /// distortion expected). Data failures are reported in the result, never thrown.
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
-                                   const BouguetCamera& camera, const PairOptions& options);
+                                   const BouguetCamera& camera, const PairOptions& options,
+                                   std::span<const IntermediateView> between = {});
 
 /// 8-bit gray of a BGR8 or GRAY8 image (a GRAY8 image is returned as it is, not copied).
 cv::Mat ToGray(const cv::Mat& image);
@@ -115,13 +135,20 @@ void ScalePairReconstruction(double metres_per_unit, PairReconstruction* pair);
 /// while the appliance waits for B.
 Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options);
 
+/// An intermediate view from a frame (BGR8 or GRAY8, A's size) whose correspondences with A
+/// come from SIFT matching against A's features (where no gate tracked the frame, e.g. a
+/// keyframe list in `monomesh eval`).
+IntermediateView MatchIntermediateView(const Features& features_a, const cv::Mat& image,
+                                       const PairOptions& options);
+
 /// As above, with keyframe A's features precomputed by ExtractKeyframeFeatures (the time
 /// after B arrives; `times.features_a_s` stays 0), and the keyframe gate's tracks from A to B
 /// as further correspondences (a pair with weak SIFT matching across the baseline still has
-/// enough inliers).
+/// enough inliers). `between`: frames between A and B for the dense stage (mesh_mode kDense).
 PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
                                    const cv::Mat& image_b, const BouguetCamera& camera,
                                    const PairOptions& options,
-                                   std::span<const TrackCorrespondence> tracks = {});
+                                   std::span<const TrackCorrespondence> tracks = {},
+                                   std::span<const IntermediateView> between = {});
 
 }  // namespace mm

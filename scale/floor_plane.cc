@@ -30,6 +30,29 @@ double MeanHeight(std::span<const Eigen::Vector3d> points, const std::vector<int
 
 }  // namespace
 
+int ChooseFloorPlane(std::span<const HorizontalPlaneCandidate> candidates,
+                     double lower_plane_support, double same_plane_rel) {
+  if (candidates.empty()) return -1;
+  size_t best = 0;
+  for (size_t k = 1; k < candidates.size(); ++k) {
+    if (candidates[k].support > candidates[best].support) best = k;
+  }
+  size_t floor = best;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const HorizontalPlaneCandidate& c = candidates[k];
+    const HorizontalPlaneCandidate& f = candidates[floor];
+    if (static_cast<double>(c.support) <
+        lower_plane_support * static_cast<double>(candidates[best].support)) {
+      continue;
+    }
+    if (c.distance > f.distance * (1.0 + same_plane_rel) ||
+        (c.distance > f.distance * (1.0 - same_plane_rel) && c.support > f.support)) {
+      floor = k;
+    }
+  }
+  return static_cast<int>(floor);
+}
+
 FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
                               const Eigen::Vector3d& up_in_cam, const FloorPlaneOptions& options) {
   FloorPlane out;
@@ -59,11 +82,7 @@ FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
 
   // Hypotheses: one point each fixes the plane. Duplicates of one plane are many, which the
   // choice below does not mind.
-  struct Candidate {
-    double distance;
-    int support;
-  };
-  std::vector<Candidate> candidates;
+  std::vector<HorizontalPlaneCandidate> candidates;
   std::mt19937 rng(options.seed);
   std::uniform_int_distribution<size_t> pick(0, below.size() - 1);
   for (int it = 0; it < options.iterations; ++it) {
@@ -71,7 +90,7 @@ FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
     if (!(d > min_distance)) continue;  // The camera is not above it.
     const int support =
         static_cast<int>(Inliers(points_in_cam, up, d, options.inlier_distance_rel * d).size());
-    if (support >= options.min_inliers) candidates.push_back({d, support});
+    if (support >= options.min_inliers) candidates.push_back({d, static_cast<size_t>(support)});
   }
   if (candidates.empty()) {
     out.why_not = "no horizontal plane below the camera with " +
@@ -79,21 +98,10 @@ FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
     return out;
   }
   // The best supported plane, or a lower one with enough support.
-  const Candidate* best = &candidates.front();
-  for (const Candidate& c : candidates) {
-    if (c.support > best->support) best = &c;
-  }
-  const Candidate* floor = best;
-  for (const Candidate& c : candidates) {
-    if (c.support < options.lower_plane_support * best->support) continue;
-    if (c.distance > floor->distance * (1.0 + options.inlier_distance_rel) ||
-        (c.distance > floor->distance * (1.0 - options.inlier_distance_rel) &&
-         c.support > floor->support)) {
-      floor = &c;
-    }
-  }
+  const int floor =
+      ChooseFloorPlane(candidates, options.lower_plane_support, options.inlier_distance_rel);
   // Two rounds of least squares on the inliers (the band follows the refined distance).
-  double distance = floor->distance;
+  double distance = candidates[static_cast<size_t>(floor)].distance;
   std::vector<int> inliers;
   for (int round = 0; round < 2; ++round) {
     inliers = Inliers(points_in_cam, up, distance, options.inlier_distance_rel * distance);

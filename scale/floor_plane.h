@@ -7,6 +7,7 @@
 // Thread-safety: pure.
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -49,6 +50,20 @@ struct FloorPlane {
 FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
                               const Eigen::Vector3d& up_in_cam,
                               const FloorPlaneOptions& options = {});
+
+/// A horizontal plane below the camera: its distance from the camera and its points.
+struct HorizontalPlaneCandidate {
+  double distance = 0.0;
+  size_t support = 0;
+};
+
+/// The floor among horizontal planes below the camera: of those with at least
+/// `lower_plane_support` times the best supported one's points, the lowest (a table top can
+/// have more points in view than the floor below it); candidates within `same_plane_rel` of
+/// each other's distance are one plane, and the better supported one stands for it. Returns
+/// its index, -1 when there is none.
+int ChooseFloorPlane(std::span<const HorizontalPlaneCandidate> candidates,
+                     double lower_plane_support, double same_plane_rel);
 
 /// World up in the frame of a camera pitched down by `pitch_down_deg` about its x axis (no
 /// roll): (0, -cos p, -sin p); a level camera's up is -y.

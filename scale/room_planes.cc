@@ -321,24 +321,20 @@ RoomPlanes FitRoomPlanes(std::span<const Eigen::Vector3d> points_in_cam,
   std::nth_element(below_depths.begin(), below_depths.begin() + below_depths.size() / 2,
                    below_depths.end());
   const double min_distance = options.min_distance_rel * below_depths[below_depths.size() / 2];
-  int best = -1;
+  std::vector<HorizontalPlaneCandidate> below_camera;
+  std::vector<int> plane_of_candidate;
   for (size_t k = 0; k < planes.size(); ++k) {
     if (planes[k].kind != Kind::kHorizontal || !(offsets[k] > min_distance)) continue;
-    if (best < 0 || planes[k].points.size() > planes[best].points.size())
-      best = static_cast<int>(k);
+    below_camera.push_back({offsets[k], planes[k].points.size()});
+    plane_of_candidate.push_back(static_cast<int>(k));
   }
-  if (best < 0) {
+  // The planes are distinct (sequential RANSAC took each one's points away): no merging.
+  const int chosen = ChooseFloorPlane(below_camera, options.lower_plane_support, 0.0);
+  if (chosen < 0) {
     out.why_not = "no floor in view (no horizontal plane below the camera)";
     return out;
   }
-  int floor = best;
-  for (size_t k = 0; k < planes.size(); ++k) {
-    if (planes[k].kind != Kind::kHorizontal || !(offsets[k] > min_distance)) continue;
-    if (static_cast<double>(planes[k].points.size()) <
-        options.lower_plane_support * static_cast<double>(planes[best].points.size()))
-      continue;
-    if (offsets[k] > offsets[floor]) floor = static_cast<int>(k);
-  }
+  const int floor = plane_of_candidate[static_cast<size_t>(chosen)];
   // Nothing lies below a floor: points well below the lowest plane (walls reaching further
   // down) mean it is a table or box top and the floor is out of view.
   int below_floor = 0;

@@ -159,6 +159,19 @@ CaptureSession::Step CaptureSession::OnTime(double time_s) {
   return Fail(CaptureEnd::kTimeout, std::move(reason));
 }
 
+std::vector<IntermediateView> CaptureSession::Between() const {
+  const GateWaypoint& frame = gate_.halfway();
+  if (frame.gray.empty()) return {};
+  IntermediateView view{frame.gray, {}};
+  view.correspondences.reserve(frame.origins_a.size());
+  for (size_t i = 0; i < frame.origins_a.size() && i < frame.positions.size(); ++i) {
+    const cv::Point2f& a = frame.origins_a[i];
+    const cv::Point2f& m = frame.positions[i];
+    view.correspondences.push_back({Eigen::Vector2d(a.x, a.y), Eigen::Vector2d(m.x, m.y)});
+  }
+  return {std::move(view)};
+}
+
 std::vector<TrackCorrespondence> CaptureSession::Tracks() const {
   std::vector<TrackCorrespondence> out;
   const auto& a = gate_.track_origins_a();

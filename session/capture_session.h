@@ -88,8 +88,9 @@ class CaptureSession {
   /// OnFrame in two halves, for a caller that tracks off its event loop: Track is the gate's
   /// work on the frame (KLT and the two-view probe: the expensive part). It touches the gate
   /// only, so it may run on another thread meanwhile the caller may call anything but the
-  /// methods that touch the gate too: Start, OnFrame, OnResult and Tracks. OnTracked applies
-  /// the capture's policy to its decision (ignored when the session no longer wants frames).
+  /// methods that touch the gate too: Start, OnFrame, OnResult, Tracks and Between. OnTracked
+  /// applies the capture's policy to its decision (ignored when the session no longer wants
+  /// frames).
   GateDecision Track(const cv::Mat& gray);
   Step OnTracked(const GateDecision& decision, uint64_t sequence, double time_s, bool can_submit);
 
@@ -112,6 +113,9 @@ class CaptureSession {
   [[nodiscard]] const std::string& failure_reason() const { return failure_reason_; }
   /// The gate's tracks from A to the last frame, as correspondences for the reconstruction.
   [[nodiscard]] std::vector<TrackCorrespondence> Tracks() const;
+  /// The frame about halfway from A to the last frame, with the tracks' correspondences at it,
+  /// for the dense stage (empty when the gate has tracked none).
+  [[nodiscard]] std::vector<IntermediateView> Between() const;
   /// "n refused: reason (k); reason (m)" over the refused tries, for messages.
   [[nodiscard]] std::string RefusalSummary() const;
 

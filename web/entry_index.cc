@@ -32,16 +32,16 @@ std::vector<std::string> EntryFiles(const fs::path& entry_dir) {
   return files;
 }
 
-}  // namespace
-
-namespace {
+// A capture's wall-clock time in seconds since the epoch, or null when it is unknown (0).
+json UnixSecondsOrNull(int64_t realtime_ns) {
+  return realtime_ns > 0 ? json(static_cast<double>(realtime_ns) * 1e-9) : json();
+}
 
 void PairSummary(const EntryReport& report, json* summary) {
   json& s = *summary;
   s["success"] = report.success;
   s["failure_reason"] = report.failure_reason;
-  const int64_t realtime_ns = report.keyframe_a.capture_realtime_ns;
-  s["time_unix_s"] = realtime_ns > 0 ? json(static_cast<double>(realtime_ns) * 1e-9) : json();
+  s["time_unix_s"] = UnixSecondsOrNull(report.keyframe_a.capture_realtime_ns);
   s["pair"] = report.pair_classification.kind;
   s["mesh_mode"] = report.meshing.mode;
   s["vertices"] = report.counts.mesh_vertices;
@@ -57,9 +57,8 @@ void WalkSummary(const WalkReport& report, json* summary) {
   json& s = *summary;
   s["success"] = report.success;
   s["failure_reason"] = report.failure_reason;
-  const int64_t realtime_ns =
-      report.keyframes.empty() ? 0 : report.keyframes.front().info.capture_realtime_ns;
-  s["time_unix_s"] = realtime_ns > 0 ? json(static_cast<double>(realtime_ns) * 1e-9) : json();
+  s["time_unix_s"] = UnixSecondsOrNull(
+      report.keyframes.empty() ? 0 : report.keyframes.front().info.capture_realtime_ns);
   s["stop_reason"] = report.stop_reason;
   s["keyframes"] = report.counts.keyframes;
   s["registered"] = report.counts.registered;

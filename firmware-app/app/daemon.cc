@@ -68,6 +68,7 @@ struct Job {
   cv::Mat undistorted_a;  // What the reconstruction sees.
   cv::Mat undistorted_b;
   std::vector<TrackCorrespondence> tracks;  // The gate's tracks from A to B.
+  std::vector<IntermediateView> between;    // A frame about halfway, with the tracks at it.
   std::vector<KeyframeBTry> tries;          // This capture's B tries so far (the last is this B).
 };
 
@@ -274,9 +275,9 @@ class Worker {
         scale = odometry_->Lookup(config_, a, b);
       }
       scale.options = config_.scale;
-      PairJobResult result =
-          RunPairJob(job.undistorted_a, job.undistorted_b, a, b, camera_, config_.recon,
-                     have_features ? &features_a : nullptr, job.tracks, job.tries, scale);
+      PairJobResult result = RunPairJob(job.undistorted_a, job.undistorted_b, a, b, camera_,
+                                        config_.recon, have_features ? &features_a : nullptr,
+                                        job.tracks, job.between, job.tries, scale);
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
         outcome.refused = true;
@@ -959,8 +960,9 @@ void Daemon::ApplyGate(const TrackedFrame& tracked) {
         {"inliers", d.essential_inliers},
         {"after_lost_track", session_.tries().back().after_lost_track},
         {"try", session_.tries().size()}});
-  Job job{captures_,           keyframe_a_,       frame,           undistorted_a_,
-          tracked.undistorted, session_.Tracks(), session_.tries()};
+  Job job{captures_,          keyframe_a_,         frame,
+          undistorted_a_,     tracked.undistorted, session_.Tracks(),
+          session_.Between(), session_.tries()};
   if (!worker_->Submit(std::move(job))) {
     EndCapture("worker busy; capture dropped");
     return;

@@ -10,12 +10,13 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                          const KeyframeInfo& b, const BouguetCamera& camera,
                          const PairOptions& options, const Features* features_a,
                          std::span<const TrackCorrespondence> tracks,
+                         std::span<const IntermediateView> between,
                          std::span<const KeyframeBTry> tries, const PairScaleInputs& scale) {
   PairJobResult out;
   const auto start = std::chrono::steady_clock::now();
   out.recon = features_a != nullptr
-                  ? ReconstructPair(*features_a, image_a, image_b, camera, options, tracks)
-                  : ReconstructPair(image_a, image_b, camera, options);
+                  ? ReconstructPair(*features_a, image_a, image_b, camera, options, tracks, between)
+                  : ReconstructPair(image_a, image_b, camera, options, between);
   ScaleEstimate metric;
   if (out.recon.success) {
     metric = EstimateScale({.odometry_a_m = scale.odometry_a_m,

@@ -37,13 +37,15 @@ struct PairJobResult {
 /// `image_a`/`image_b` are undistorted BGR8 frames seen through `camera` (no distortion).
 /// `features_a`, when given, are keyframe A's features from ExtractKeyframeFeatures (computed
 /// while the gate waited for B), so only B's are computed here.
-/// `tracks`: the keyframe gate's tracks from A to B (further correspondences); `tries`: the
+/// `tracks`: the keyframe gate's tracks from A to B (further correspondences); `between`: the
+/// frames between A and B with the tracks at them (further views for the dense stage); `tries`: the
 /// capture's B tries so far, the last being this B (the report lists them). `scale`: when a
 /// source scales the pair, the reconstruction, the report and every file are in metres.
 PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const KeyframeInfo& a,
                          const KeyframeInfo& b, const BouguetCamera& camera,
                          const PairOptions& options, const Features* features_a = nullptr,
                          std::span<const TrackCorrespondence> tracks = {},
+                         std::span<const IntermediateView> between = {},
                          std::span<const KeyframeBTry> tries = {},
                          const PairScaleInputs& scale = {});
 

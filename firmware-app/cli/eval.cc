@@ -67,6 +67,7 @@ struct EvalArgs {
   bool use_tracks = CaptureEvalOptions{}.use_tracks;
   double worker_latency_s = CaptureEvalOptions{}.worker_latency_s;
   std::string mesh_mode = MeshModeName(EvalOptions{}.pair.mesh_mode);
+  bool frame_between = EvalOptions{}.intermediate_view;
   std::string scale_source = "none";
   double odom_noise_m = 0.0;
   unsigned odom_seed = EvalOptions{}.odom_seed;
@@ -168,6 +169,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.refinement.enabled = args.refine_points;
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
   options.pair.mesh_mode = *ParseMeshMode(args.mesh_mode);  // CLI11 checked the name.
+  options.intermediate_view = args.frame_between;
   if (args.captures) return RunCaptureEval(args, camera, options.pair);
   if (args.walk) return RunWalkEval(args, camera, options.pair);
   if (const std::string problem = options.Check(); !problem.empty()) {
@@ -234,6 +236,9 @@ Runner AddEvalCommand(CLI::App& app) {
                   "The pair's mesh: dense (from the dense depth of A) or sparse (Delaunay of "
                   "the triangulated points)")
       ->check(CLI::IsMember({"dense", "sparse"}));
+  cmd->add_option("--frame-between", args->frame_between,
+                  "Pairs more than one frame apart: the middle frame joins the dense sweep "
+                  "(true / false)");
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   cmd->add_flag("--captures", args->captures,
                 "Play the sequence through the daemon's gate and worker and press capture");

@@ -68,6 +68,9 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
     const EntryReport report = ReadReport(entries[k]);
     const KeyframeInfo& a = report.keyframe_a;
     const KeyframeInfo& b = report.keyframe_b;
+    // The dense sweep took the gate's frame about halfway beside B.
+    EXPECT_EQ(report.meshing.mode, "dense");
+    EXPECT_EQ(report.meshing.dense_views_between, 1) << report.meshing.dense_views_left_out;
     const auto world_from_a = gt.WorldFromCamAt(a.source_time_s, 0.0);
     const auto world_from_b = gt.WorldFromCamAt(b.source_time_s, 0.0);
     ASSERT_TRUE(world_from_a && world_from_b);
