@@ -75,6 +75,10 @@ std::string PairOptions::Check() const {
   if (max_intermediate_views < 0 || max_intermediate_views > 8) {
     return "max_intermediate_views: must be in [0, 8]";
   }
+  if (!(intermediate_baseline_share[0] >= 0 &&
+        intermediate_baseline_share[1] >= intermediate_baseline_share[0])) {
+    return "intermediate_baseline_share: must be 0 <= low <= high";
+  }
   return {};
 }
 
@@ -219,6 +223,15 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
                                              in_view, camera.K(), options.view_pose);
       if (!pose.success) {
         out.intermediate_failures.push_back(pose.failure_reason);
+        continue;
+      }
+      // Near A it adds no depth resolution, near B no other view of the scene.
+      const double share = pose.translation_from_a.norm() / out.geometry.translation.norm();
+      if (share < options.intermediate_baseline_share[0] ||
+          share > options.intermediate_baseline_share[1]) {
+        out.intermediate_failures.push_back(
+            "view at " + std::to_string(static_cast<int>(std::lround(100 * share))) +
+            " % of B's distance from A");
         continue;
       }
       views.push_back({ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});

@@ -6,6 +6,7 @@
 //
 // Thread-safety: pure function; reentrant.
 
+#include <array>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <span>
@@ -63,6 +64,8 @@ struct PairOptions {
   /// whose distance from A is nearest half of B's (each view's sweep costs about as much as
   /// B's; halfway, the view sees much of what B's occludes, and with a different baseline).
   int max_intermediate_views = 1;
+  /// An intermediate view is used only when its distance from A is within this share of B's.
+  std::array<double, 2> intermediate_baseline_share = {0.2, 0.8};
   [[nodiscard]] std::string Check() const;
 };
 
