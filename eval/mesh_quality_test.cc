@@ -187,7 +187,11 @@ TEST_F(MeshQuality, AFrameBetweenRaisesCoverageAndLowersTheFarOffShare) {
     ASSERT_EQ(three.mesh_mode, MeshMode::kDense) << three.dense_failure_reason;
     EXPECT_EQ(three.intermediate_views, ib - 1);
     EXPECT_EQ(three.intermediate_views_used, 1);
-    EXPECT_TRUE(three.intermediate_failures.empty());
+    // Every frame was posed; one left out is outside 20-80 % of B's distance from A.
+    for (const std::string& reason : three.intermediate_failures) {
+      std::printf("pair (0,%d): frame between left out: %s\n", ib, reason.c_str());
+      EXPECT_NE(reason.find("of B's distance from A"), std::string::npos) << reason;
+    }
     const PairFigures f2 = Evaluate(two.mesh, two, a, b);
     const PairFigures f3 = Evaluate(three.mesh, three, a, b);
     ASSERT_TRUE(f2.depth.success && f3.depth.success);
