@@ -4,6 +4,21 @@
 #include <map>
 
 namespace mm {
+namespace {
+
+// The gate's tracks as correspondences: where each started in A and where it is in a frame.
+std::vector<TrackCorrespondence> Correspondences(const std::vector<cv::Point2f>& origins_a,
+                                                 const std::vector<cv::Point2f>& positions) {
+  std::vector<TrackCorrespondence> out;
+  out.reserve(origins_a.size());
+  for (size_t i = 0; i < origins_a.size() && i < positions.size(); ++i) {
+    out.push_back({Eigen::Vector2d(origins_a[i].x, origins_a[i].y),
+                   Eigen::Vector2d(positions[i].x, positions[i].y)});
+  }
+  return out;
+}
+
+}  // namespace
 
 const char* CaptureEndName(CaptureEnd end) {
   switch (end) {
@@ -162,25 +177,11 @@ CaptureSession::Step CaptureSession::OnTime(double time_s) {
 std::vector<IntermediateView> CaptureSession::Between() const {
   const GateWaypoint& frame = gate_.halfway();
   if (frame.gray.empty()) return {};
-  IntermediateView view{frame.gray, {}};
-  view.correspondences.reserve(frame.origins_a.size());
-  for (size_t i = 0; i < frame.origins_a.size() && i < frame.positions.size(); ++i) {
-    const cv::Point2f& a = frame.origins_a[i];
-    const cv::Point2f& m = frame.positions[i];
-    view.correspondences.push_back({Eigen::Vector2d(a.x, a.y), Eigen::Vector2d(m.x, m.y)});
-  }
-  return {std::move(view)};
+  return {IntermediateView{frame.gray, Correspondences(frame.origins_a, frame.positions)}};
 }
 
 std::vector<TrackCorrespondence> CaptureSession::Tracks() const {
-  std::vector<TrackCorrespondence> out;
-  const auto& a = gate_.track_origins_a();
-  const auto& b = gate_.track_positions();
-  out.reserve(a.size());
-  for (size_t i = 0; i < a.size() && i < b.size(); ++i) {
-    out.push_back({Eigen::Vector2d(a[i].x, a[i].y), Eigen::Vector2d(b[i].x, b[i].y)});
-  }
-  return out;
+  return Correspondences(gate_.track_origins_a(), gate_.track_positions());
 }
 
 }  // namespace mm
