@@ -2,6 +2,7 @@
 
 #include "base/stats.h"
 #include "recon/sgm.h"
+#include "recon/zncc.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -63,53 +64,20 @@ double SweepSpanPx(const Eigen::Matrix3d& Ks, const Eigen::Matrix3d& Ks_inv,
   return span;
 }
 
-// Per-plane images, allocated once per sweep (a fresh large allocation per plane costs page
-// faults).
-struct PlaneCostScratch {
-  explicit PlaneCostScratch(cv::Size size)
-      : warped(size, CV_32F),
-        ww(size, CV_32F),
-        aw(size, CV_32F),
-        mean_w(size, CV_32F),
-        mean_ww(size, CV_32F),
-        mean_aw(size, CV_32F),
-        var_w(size, CV_32F),
-        numerator(size, CV_32F),
-        denominator(size, CV_32F),
-        zncc(size, CV_32F),
-        no_texture_w(size, CV_8U) {}
-  cv::Mat warped, ww, aw, mean_w, mean_ww, mean_aw, var_w, numerator, denominator, zncc;
-  cv::Mat no_texture_w;
-};
-
-// 1 - ZNCC (fixed point, 0..2 kCostScale) of A's window against the view warped into A by the
-// plane's homography H (A's pixels to the view's), for every pixel of A, with OpenCV's
-// vectorized arithmetic. A warped window without texture gets ZNCC 0.
-void PlaneCost(const cv::Mat& a, const cv::Mat& mean_a, const cv::Mat& var_a, const cv::Mat& view,
-               const Eigen::Matrix3d& H, int radius, float min_var, PlaneCostScratch* s,
-               cv::Mat* cost) {
-  const cv::Size window(2 * radius + 1, 2 * radius + 1);
+// 1 - ZNCC (fixed point, 0..2 kCostScale) of A's windows against the view warped into A by the
+// plane's homography H (A's pixels to the view's), for every pixel of A (recon/zncc.h). A
+// warped window without texture gets ZNCC 0. `warped`: scratch of A's size (CV_32F).
+void PlaneCost(const ZnccWindowsA& windows_a, const cv::Mat& view, const Eigen::Matrix3d& H,
+               float min_var, cv::Mat* warped, cv::Mat* cost) {
   cv::Mat Hcv;
   cv::eigen2cv(H, Hcv);
-  cv::warpPerspective(view, s->warped, Hcv, a.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+  cv::warpPerspective(view, *warped, Hcv, warped->size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                       cv::BORDER_REPLICATE);
-  cv::multiply(s->warped, s->warped, s->ww);
-  cv::multiply(a, s->warped, s->aw);
-  cv::boxFilter(s->warped, s->mean_w, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  cv::boxFilter(s->ww, s->mean_ww, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  cv::boxFilter(s->aw, s->mean_aw, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  cv::multiply(s->mean_w, s->mean_w, s->var_w);
-  cv::subtract(s->mean_ww, s->var_w, s->var_w);
-  cv::multiply(mean_a, s->mean_w, s->numerator);
-  cv::subtract(s->mean_aw, s->numerator, s->numerator);
-  cv::multiply(var_a, s->var_w, s->denominator);
-  cv::max(s->denominator, 1e-12, s->denominator);
-  cv::sqrt(s->denominator, s->denominator);
-  cv::divide(s->numerator, s->denominator, s->zncc);
-  cv::compare(s->var_w, min_var, s->no_texture_w, cv::CMP_LT);
-  s->zncc.setTo(0.0f, s->no_texture_w);
-  s->zncc.convertTo(*cost, CV_16U, -kCostScale, kCostScale);  // Rounded, saturated at 0.
-  cv::min(*cost, 2 * kCostScale, *cost);
+  const size_t pixels = warped->total();
+  const bool ok = PlaneZnccCost(
+      windows_a, std::span<const float>(warped->ptr<float>(), pixels), min_var, kCostScale,
+      std::span<uint16_t>(cost->ptr<uint16_t>(), pixels));
+  CV_Assert(ok);  // The sizes are the sweep's own.
 }
 
 // Adds one view's plane costs to the plane's slice of the volume (plane-major) at A's textured
@@ -238,6 +206,50 @@ void FillSmallHoles(int max_pixels, float filled_confidence, cv::Mat* rho, cv::M
   }
 }
 
+// True when inverse depths `near` > `far` lie on two surfaces rather than one (within 5 % of
+// depth plus two plane steps, so that the sweep's quantization does not read as an edge).
+bool IsDepthEdge(float near, float far, double rho_step) {
+  return far < near - (0.05 * near + 2 * rho_step);
+}
+
+// Foreground fattening (Scharstein & Szeliski 2002, sec. 5): next to the far side of a
+// depth edge, A's background is hidden in B behind the foreground and A's window there is
+// dominated by the foreground's texture, so both the cost and SGM give it the foreground's
+// depth. The band lies on the side of the foreground towards which nearer points move in
+// B: along the epipolar direction d(x) = d pi(R x + rho t) / d rho in A's image, i.e. away
+// from the epipole. A pixel is dropped when a pixel at most `band_px` along +d has a depth on
+// another, farther surface (checked on the depth before any drop, so bands do not grow).
+void DropOcclusionBands(const Eigen::Matrix3d& Ks_inv, const Eigen::Vector3d& center_b_in_a,
+                        int band_px, double rho_step, cv::Mat* rho, cv::Mat* confidence) {
+  if (band_px <= 0) return;
+  const cv::Mat before = rho->clone();
+  const Eigen::Vector3d& c = center_b_in_a;
+  for (int y = 0; y < before.rows; ++y) {
+    for (int x = 0; x < before.cols; ++x) {
+      const float near = before.at<float>(y, x);
+      if (!(near > 0)) continue;
+      // The ray's point at inverse depth rho is x_n / rho; seen from B's centre c its image
+      // moves, as rho grows, along -(c_xy - x_n,xy c_z) (the epipole is c's image).
+      const Eigen::Vector3d xn = Ks_inv * Eigen::Vector3d(x, y, 1);
+      const Eigen::Vector2d d(-(c.x() - xn.x() * c.z()) / Ks_inv(0, 0),
+                              -(c.y() - xn.y() * c.z()) / Ks_inv(1, 1));
+      const double length = d.norm();
+      if (!(length > 1e-12)) continue;
+      for (int k = 1; k <= band_px; ++k) {
+        const int xs = static_cast<int>(std::lround(x + k * d.x() / length));
+        const int ys = static_cast<int>(std::lround(y + k * d.y() / length));
+        if (xs < 0 || ys < 0 || xs >= before.cols || ys >= before.rows) break;
+        const float far = before.at<float>(ys, xs);
+        if (far > 0 && IsDepthEdge(near, far, rho_step)) {
+          rho->at<float>(y, x) = 0;
+          confidence->at<float>(y, x) = 0;
+          break;
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 std::string DenseOptions::Check() const {
@@ -265,6 +277,9 @@ std::string DenseOptions::Check() const {
   if (speckle_planes < 0 || speckle_planes > 16) return "dense.speckle_planes must be in [0, 16]";
   if (!(max_view_disagreement >= 0 && max_view_disagreement <= 2)) {
     return "dense.max_view_disagreement must be in [0, 2]";
+  }
+  if (occlusion_band_px < 0 || occlusion_band_px > 64) {
+    return "dense.occlusion_band_px must be in [0, 64]";
   }
   if (!(max_hole_fraction >= 0 && max_hole_fraction < 1)) {
     return "dense.max_hole_fraction must be in [0, 1)";
@@ -362,7 +377,13 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   }
   const int disagreement_cap =
       static_cast<int>(std::lround(options.max_view_disagreement * kCostScale));
-  PlaneCostScratch scratch(a.size());
+  const ZnccWindowsA windows_a{.a = std::span<const float>(a.ptr<float>(), pixels),
+                               .mean_a = std::span<const float>(mean_a.ptr<float>(), pixels),
+                               .var_a = std::span<const float>(var_a.ptr<float>(), pixels),
+                               .width = width,
+                               .height = height,
+                               .radius = r};
+  cv::Mat warped(a.size(), CV_32F);
   cv::Mat previous_cost(a.size(), CV_16U), current_cost(a.size(), CV_16U);
   cv::Mat blended_cost(a.size(), CV_16U);
   for (size_t v = 0; v < views.size(); ++v) {
@@ -383,7 +404,7 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
     };
     int previous_d = -1;
     for (int d = 0; d < planes; d = (d == planes - 1) ? planes : std::min(d + stride, planes - 1)) {
-      PlaneCost(a, mean_a, var_a, view.image, homography(d), r, min_var, &scratch, &current_cost);
+      PlaneCost(windows_a, view.image, homography(d), min_var, &warped, &current_cost);
       for (int between = previous_d + 1; previous_d >= 0 && between < d; ++between) {
         const double w = static_cast<double>(between - previous_d) / (d - previous_d);
         cv::addWeighted(previous_cost, 1.0 - w, current_cost, w, 0.0, blended_cost, CV_16U);
@@ -466,6 +487,8 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   out.inverse_depth = MedianOfValid(rho);
   FillSmallHoles(static_cast<int>(options.max_hole_fraction * static_cast<double>(pixels)),
                  static_cast<float>(options.min_confidence), &out.inverse_depth, &confidence);
+  DropOcclusionBands(Ks_inv, -R.transpose() * t, options.occlusion_band_px, rho_step,
+                     &out.inverse_depth, &confidence);
   out.confidence = confidence;
   const int valid = cv::countNonZero(out.inverse_depth > 0);
   out.valid_fraction = static_cast<double>(valid) / static_cast<double>(pixels);
@@ -504,7 +527,7 @@ double InverseDepthAt(const DenseDepth& depth, double u, double v) {
     }
   }
   // Across a depth edge a blend would be a point on neither surface: take the nearest.
-  if (hi - lo > 0.05 * hi + 2 * depth.inverse_depth_step) return nearest;
+  if (IsDepthEdge(hi, lo, depth.inverse_depth_step)) return nearest;
   return weight > 1e-9 ? sum / weight : nearest;
 }
 

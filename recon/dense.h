@@ -10,8 +10,9 @@
 // agree they average, where one does not see the point (occluded in it) the better one counts.
 // A pixel keeps its depth when the aggregated cost has a clear minimum,
 // its window is textured and matches B at that depth, or it is textureless and its depth came
-// from textured neighbours; small isolated regions are removed (speckle filter) and small holes
-// inside a surface are filled from their border.
+// from textured neighbours; small isolated regions are removed (speckle filter), small holes
+// inside a surface are filled from their border, and the band next to a depth edge where B
+// sees the foreground instead of A's background (foreground fattening) is dropped.
 // The method and its measured alternatives: docs/recon_tuning.md.
 //
 // Thread-safety: pure functions; reentrant (scratch volumes are kept per thread).
@@ -29,8 +30,9 @@ struct DenseOptions {
   /// ZNCC window radius in pixels of the shrunk images (window = 2 r + 1).
   int window_radius = 3;
   /// Plane spacing: neighbouring planes move a pixel of A by about this many pixels in B (in
-  /// the shrunk images), so the sweep samples every pixel of the epipolar segment once.
-  double plane_step_px = 1.0;
+  /// the shrunk images): half a pixel samples the cost curve finely enough that the parabola
+  /// is not locked to whole pixels on short baselines (docs/recon_tuning.md).
+  double plane_step_px = 0.5;
   int min_planes = 16;
   int max_planes = 64;  ///< Beyond it the planes are spaced wider (sub-plane parabola).
   /// The sweep's inverse-depth range: the sparse points' 2nd and 98th percentiles of inverse
@@ -64,6 +66,10 @@ struct DenseOptions {
   /// window straddles an edge there) costs at most cap / 2 (Kang, Szeliski & Chai, CVPR 2001,
   /// take the better views for the same reason).
   double max_view_disagreement = 0.125;
+  /// Foreground fattening: a pixel whose depth is nearer than a pixel's at most this many
+  /// pixels (shrunk image) away along its epipolar direction (away from the epipole, where B
+  /// hides A's background behind the foreground) is dropped. 0 = off.
+  int occlusion_band_px = 5;
   [[nodiscard]] std::string Check() const;
 };
 
