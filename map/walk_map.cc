@@ -5,10 +5,9 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
 
 #include "recon/epipolar.h"
+#include "recon/view_pose.h"
 
 namespace mm {
 namespace {
@@ -185,14 +184,12 @@ bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
     }
   }
   summary->matching_s = SecondsSince(matching_start);
-  std::vector<cv::Point3d> object;
-  std::vector<cv::Point2d> image;
+  std::vector<Eigen::Vector3d> object;
+  std::vector<Eigen::Vector2d> image;
   std::vector<std::pair<int, int>> correspondence;  // (new keypoint, point)
   for (const auto& [keypoint, id] : point_of_new_keypoint) {
-    const Eigen::Vector3d& x = points_[static_cast<size_t>(id)].position_in_segment;
-    const Eigen::Vector2d p = Pixel(keyframe, keypoint);
-    object.emplace_back(x.x(), x.y(), x.z());
-    image.emplace_back(p.x(), p.y());
+    object.push_back(points_[static_cast<size_t>(id)].position_in_segment);
+    image.push_back(Pixel(keyframe, keypoint));
     correspondence.emplace_back(keypoint, id);
   }
   summary->matches_3d = static_cast<int>(object.size());
@@ -202,36 +199,20 @@ bool WalkMap::Register(int keyframe, WalkKeyframeSummary* summary) {
                        ")";
     return false;
   }
-  cv::Mat k_cv;
-  cv::eigen2cv(K_, k_cv);
-  cv::Mat rvec, tvec;
-  std::vector<int> inliers;
-  cv::setRNGSeed(static_cast<int>(options_.seed + static_cast<unsigned>(keyframe)));
-  const bool found = cv::solvePnPRansac(object, image, k_cv, cv::noArray(), rvec, tvec, false,
-                                        options_.pnp_iterations, options_.pnp_reprojection_px,
-                                        0.9999, inliers, cv::SOLVEPNP_SQPNP);
-  summary->pnp_inliers = static_cast<int>(inliers.size());
-  if (!found || summary->pnp_inliers < options_.min_pnp_inliers) {
+  const PnpRansacPose pose = SolvePnpRansacRefined(object, image, K_,
+                                                   {.threshold_px = options_.pnp_reprojection_px,
+                                                    .iterations = options_.pnp_iterations,
+                                                    .confidence = 0.9999,
+                                                    .sqpnp = true});
+  summary->pnp_inliers = static_cast<int>(pose.inliers.size());
+  if (!pose.found || summary->pnp_inliers < options_.min_pnp_inliers) {
     summary->failure = "registration: " + std::to_string(summary->pnp_inliers) +
                        " PnP inliers of " + std::to_string(summary->matches_3d) + " (need " +
                        std::to_string(options_.min_pnp_inliers) + ")";
     return false;
   }
-  std::vector<cv::Point3d> object_in;
-  std::vector<cv::Point2d> image_in;
-  for (int i : inliers) {
-    object_in.push_back(object[static_cast<size_t>(i)]);
-    image_in.push_back(image[static_cast<size_t>(i)]);
-  }
-  cv::solvePnPRefineLM(object_in, image_in, k_cv, cv::noArray(), rvec, tvec);
-  cv::Mat rotation_cv;
-  cv::Rodrigues(rvec, rotation_cv);
-  Eigen::Matrix3d rotation;
-  Eigen::Vector3d translation;
-  cv::cv2eigen(rotation_cv, rotation);
-  cv::cv2eigen(tvec, translation);
-  k.cam_from_segment.linear() = rotation;
-  k.cam_from_segment.translation() = translation;
+  k.cam_from_segment.linear() = pose.rotation;
+  k.cam_from_segment.translation() = pose.translation;
   k.segment = segment_;
   k.registered = true;
   // Observations of the map points, re-checked under the refined pose.

@@ -50,7 +50,7 @@ struct WalkOptions {
   double min_triangulation_angle_deg = 1.0;  ///< New points seen under a smaller angle: dropped.
   int window = 6;  ///< Keyframes the local BA adjusts (two of them fixed).
   LocalBundleOptions bundle;
-  unsigned seed = 0;  ///< Seeds the RANSACs (cv::theRNG for the PnP).
+  unsigned seed = 0;  ///< Seeds the two-view RANSACs (OpenCV's PnP RANSAC has a fixed seed).
   [[nodiscard]] std::string Check() const;
 };
 

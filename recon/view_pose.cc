@@ -24,6 +24,43 @@ std::string ViewPoseOptions::Check() const {
   return {};
 }
 
+PnpRansacPose SolvePnpRansacRefined(std::span<const Eigen::Vector3d> points,
+                                    std::span<const Eigen::Vector2d> pixels,
+                                    const Eigen::Matrix3d& K, const PnpRansacOptions& options) {
+  PnpRansacPose out;
+  if (points.size() != pixels.size() || points.size() < 4) return out;
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  object.reserve(points.size());
+  image.reserve(pixels.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    object.emplace_back(points[i].x(), points[i].y(), points[i].z());
+    image.emplace_back(pixels[i].x(), pixels[i].y());
+  }
+  cv::Mat K_cv, rvec, tvec;
+  cv::eigen2cv(K, K_cv);
+  out.found = cv::solvePnPRansac(object, image, K_cv, cv::noArray(), rvec, tvec, false,
+                                 options.iterations, static_cast<float>(options.threshold_px),
+                                 options.confidence, out.inliers,
+                                 options.sqpnp ? cv::SOLVEPNP_SQPNP : cv::SOLVEPNP_EPNP);
+  if (!out.found || out.inliers.size() < 4) {
+    out.found = false;
+    return out;
+  }
+  std::vector<cv::Point3d> object_in;
+  std::vector<cv::Point2d> image_in;
+  for (int i : out.inliers) {
+    object_in.push_back(object[static_cast<size_t>(i)]);
+    image_in.push_back(image[static_cast<size_t>(i)]);
+  }
+  cv::solvePnPRefineLM(object_in, image_in, K_cv, cv::noArray(), rvec, tvec);
+  cv::Mat R_cv;
+  cv::Rodrigues(rvec, R_cv);
+  cv::cv2eigen(R_cv, out.rotation);
+  cv::cv2eigen(tvec, out.translation);
+  return out;
+}
+
 ViewPose EstimateViewPose(std::span<const Eigen::Vector3d> points_in_a,
                           std::span<const Eigen::Vector2d> point_pixels_a,
                           std::span<const Eigen::Vector2d> pixels_a,
@@ -47,17 +84,16 @@ ViewPose EstimateViewPose(std::span<const Eigen::Vector3d> points_in_a,
   by_pixel.reserve(point_pixels_a.size());
   for (size_t i = 0; i < point_pixels_a.size(); ++i) by_pixel.emplace(key(point_pixels_a[i]), i);
 
-  std::vector<cv::Point3d> object;
-  std::vector<cv::Point2d> image;
+  std::vector<Eigen::Vector3d> object;
+  std::vector<Eigen::Vector2d> image;
   for (size_t j = 0; j < pixels_a.size(); ++j) {
     const auto [first, last] = by_pixel.equal_range(key(pixels_a[j]));
     for (auto it = first; it != last; ++it) {
       if ((point_pixels_a[it->second] - pixels_a[j]).norm() > options.max_pixel_a_offset_px) {
         continue;
       }
-      const Eigen::Vector3d& X = points_in_a[it->second];
-      object.emplace_back(X.x(), X.y(), X.z());
-      image.emplace_back(pixels_view[j].x(), pixels_view[j].y());
+      object.push_back(points_in_a[it->second]);
+      image.push_back(pixels_view[j]);
       break;
     }
   }
@@ -68,40 +104,24 @@ ViewPose EstimateViewPose(std::span<const Eigen::Vector3d> points_in_a,
                          std::to_string(options.min_inliers) + ")";
     return out;
   }
-  cv::Mat K_cv, rvec, tvec;
-  cv::eigen2cv(K, K_cv);
-  std::vector<int> inliers;
-  // solvePnPRansac samples with its own fixed-seed generator (deterministic).
-  const bool found = cv::solvePnPRansac(
-      object, image, K_cv, cv::noArray(), rvec, tvec, false, options.ransac_iterations,
-      static_cast<float>(options.threshold_px), 0.999, inliers, cv::SOLVEPNP_EPNP);
-  const double share = static_cast<double>(inliers.size()) / static_cast<double>(object.size());
-  if (!found || static_cast<int>(inliers.size()) < options.min_inliers ||
-      share < options.min_inlier_share) {
-    out.failure_reason = "view pose: " + std::to_string(inliers.size()) + " PnP inliers of " +
+  const PnpRansacPose pose = SolvePnpRansacRefined(
+      object, image, K,
+      {.threshold_px = options.threshold_px, .iterations = options.ransac_iterations});
+  out.inliers = static_cast<int>(pose.inliers.size());
+  const double share = static_cast<double>(out.inliers) / static_cast<double>(object.size());
+  if (!pose.found || out.inliers < options.min_inliers || share < options.min_inlier_share) {
+    out.failure_reason = "view pose: " + std::to_string(out.inliers) + " PnP inliers of " +
                          std::to_string(object.size());
-    out.inliers = static_cast<int>(inliers.size());
     return out;
   }
-  std::vector<cv::Point3d> object_in;
-  std::vector<cv::Point2d> image_in;
-  for (int i : inliers) {
-    object_in.push_back(object[static_cast<size_t>(i)]);
-    image_in.push_back(image[static_cast<size_t>(i)]);
-  }
-  cv::solvePnPRefineLM(object_in, image_in, K_cv, cv::noArray(), rvec, tvec);
-  cv::Mat R_cv;
-  cv::Rodrigues(rvec, R_cv);
-  cv::cv2eigen(R_cv, out.rotation_from_a);
-  cv::cv2eigen(tvec, out.translation_from_a);
+  out.rotation_from_a = pose.rotation;
+  out.translation_from_a = pose.translation;
   double sum_sq = 0;
-  for (size_t i = 0; i < object_in.size(); ++i) {
-    const Eigen::Vector3d X(object_in[i].x, object_in[i].y, object_in[i].z);
-    const Eigen::Vector3d x = K * (out.rotation_from_a * X + out.translation_from_a);
-    sum_sq += (x.hnormalized() - Eigen::Vector2d(image_in[i].x, image_in[i].y)).squaredNorm();
+  for (int i : pose.inliers) {
+    const Eigen::Vector3d x = K * (pose.rotation * object[static_cast<size_t>(i)] + pose.translation);
+    sum_sq += (x.hnormalized() - image[static_cast<size_t>(i)]).squaredNorm();
   }
-  out.inliers = static_cast<int>(object_in.size());
-  out.reprojection_rms_px = std::sqrt(sum_sq / static_cast<double>(object_in.size()));
+  out.reprojection_rms_px = std::sqrt(sum_sq / static_cast<double>(out.inliers));
   out.success = true;
   return out;
 }

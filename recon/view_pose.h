@@ -10,8 +10,32 @@
 #include <Eigen/Core>
 #include <span>
 #include <string>
+#include <vector>
 
 namespace mm {
+
+/// Absolute pose from 3-D points and their pixels: a minimal solver in RANSAC (OpenCV's
+/// solvePnPRansac, whose sampler has its own fixed seed: deterministic), then Levenberg-
+/// Marquardt on the inliers' reprojection error.
+struct PnpRansacOptions {
+  double threshold_px = 2.0;  ///< Inlier threshold on the reprojection error.
+  int iterations = 200;
+  double confidence = 0.999;
+  /// The minimal solver: SQPnP (Terzakis & Lourakis, ECCV 2020) instead of EPnP.
+  bool sqpnp = false;
+};
+
+struct PnpRansacPose {
+  bool found = false;  ///< RANSAC found a model (the caller judges the inliers).
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< x_cam = R X + t.
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  std::vector<int> inliers;  ///< Indices into the inputs.
+};
+
+/// `points` and `pixels` index-aligned (undistorted pixels seen through K).
+PnpRansacPose SolvePnpRansacRefined(std::span<const Eigen::Vector3d> points,
+                                    std::span<const Eigen::Vector2d> pixels,
+                                    const Eigen::Matrix3d& K, const PnpRansacOptions& options);
 
 struct ViewPoseOptions {
   double threshold_px = 2.0;  ///< RANSAC inlier threshold on the reprojection error.
