@@ -88,29 +88,17 @@ int main(int argc, char** argv) {
     std::vector<DenseView> between;
     if (const char* e = std::getenv("MM_BETWEEN"); e && std::atoi(e) > 0) {
       const Features features_a = ExtractKeyframeFeatures(a, po);
+      std::vector<IntermediateView> offered;
       for (int im = 1; im < ib; ++im) {
-        const IntermediateView view = MatchIntermediateView(
-            features_a, cv::imread(frames[static_cast<size_t>(im)].path.string()), po);
-        std::vector<Eigen::Vector2d> in_a, in_view;
-        for (const TrackCorrespondence& c : view.correspondences) {
-          in_a.push_back(c.pixel_a);
-          in_view.push_back(c.pixel_b);
-        }
-        const ViewPose pose = EstimateViewPose(r.geometry.points_in_cam_a, r.point_pixels_a, in_a,
-                                               in_view, camera.K(), po.view_pose);
-        std::printf("  keyframe %d: %s (%d of %d inliers, %.2f px)\n", im,
-                    pose.success ? "posed" : pose.failure_reason.c_str(), pose.inliers,
-                    pose.correspondences_on_points, pose.reprojection_rms_px);
-        if (!pose.success) continue;
-        const double off =
-            std::abs(pose.translation_from_a.norm() - 0.5 * r.geometry.translation.norm());
-        if (!between.empty() && off >= std::abs(between[0].translation_from_a.norm() -
-                                                0.5 * r.geometry.translation.norm())) {
-          continue;
-        }
-        between.assign(
-            1, DenseView{ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});
+        offered.push_back(MatchIntermediateView(
+            features_a, cv::imread(frames[static_cast<size_t>(im)].path.string()), po));
       }
+      ChosenIntermediateViews chosen =
+          ChooseIntermediateViews(offered, r.geometry, r.point_pixels_a, camera.K(), a.size(), po);
+      for (const std::string& reason : chosen.left_out) {
+        std::printf("  frame between left out: %s\n", reason.c_str());
+      }
+      between = std::move(chosen.views);
     }
     double t0 = CpuNow();
     DenseDepth d{};

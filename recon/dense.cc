@@ -74,9 +74,9 @@ void PlaneCost(const ZnccWindowsA& windows_a, const cv::Mat& view, const Eigen::
   cv::warpPerspective(view, *warped, Hcv, warped->size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                       cv::BORDER_REPLICATE);
   const size_t pixels = warped->total();
-  const bool ok = PlaneZnccCost(
-      windows_a, std::span<const float>(warped->ptr<float>(), pixels), min_var, kCostScale,
-      std::span<uint16_t>(cost->ptr<uint16_t>(), pixels));
+  const bool ok =
+      PlaneZnccCost(windows_a, std::span<const float>(warped->ptr<float>(), pixels), min_var,
+                    kCostScale, std::span<uint16_t>(cost->ptr<uint16_t>(), pixels));
   CV_Assert(ok);  // The sizes are the sweep's own.
 }
 

@@ -150,6 +150,63 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
   return out;
 }
 
+ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView> between,
+                                                const TwoViewResult& geometry,
+                                                std::span<const Eigen::Vector2d> point_pixels_a,
+                                                const Eigen::Matrix3d& K, cv::Size image_size,
+                                                const PairOptions& options) {
+  ChosenIntermediateViews out;
+  struct Posed {
+    const IntermediateView* view;
+    ViewPose pose;
+  };
+  std::vector<Posed> posed;
+  for (const IntermediateView& view : between) {
+    if (view.image.size() != image_size) {
+      out.left_out.emplace_back("intermediate view of another size");
+      continue;
+    }
+    std::vector<Eigen::Vector2d> in_a, in_view;
+    in_a.reserve(view.correspondences.size());
+    in_view.reserve(view.correspondences.size());
+    for (const TrackCorrespondence& c : view.correspondences) {
+      in_a.push_back(c.pixel_a);
+      in_view.push_back(c.pixel_b);
+    }
+    ViewPose pose = EstimateViewPose(geometry.points_in_cam_a, point_pixels_a, in_a, in_view, K,
+                                     options.view_pose);
+    if (!pose.success) {
+      out.left_out.push_back(std::move(pose.failure_reason));
+      continue;
+    }
+    // Near A it adds no depth resolution, near B no other view of the scene.
+    const double share = pose.translation_from_a.norm() / geometry.translation.norm();
+    if (share < options.intermediate_baseline_share[0] ||
+        share > options.intermediate_baseline_share[1]) {
+      out.left_out.push_back("view at " +
+                             std::to_string(static_cast<int>(std::lround(100 * share))) +
+                             " % of B's distance from A");
+      continue;
+    }
+    posed.push_back({&view, std::move(pose)});
+  }
+  const double half_baseline = 0.5 * geometry.translation.norm();
+  auto off_halfway = [half_baseline](const Posed& v) {
+    return std::abs(v.pose.translation_from_a.norm() - half_baseline);
+  };
+  std::stable_sort(posed.begin(), posed.end(),
+                   [&](const Posed& l, const Posed& r) { return off_halfway(l) < off_halfway(r); });
+  for (size_t i = 0; i < posed.size(); ++i) {
+    if (i >= static_cast<size_t>(options.max_intermediate_views)) {
+      out.left_out.emplace_back("a view nearer halfway was taken");
+      continue;
+    }
+    out.views.push_back({ToGray(posed[i].view->image), posed[i].pose.rotation_from_a,
+                         posed[i].pose.translation_from_a});
+  }
+  return out;
+}
+
 PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& image_a,
                                    const cv::Mat& image_b, const BouguetCamera& camera,
                                    const PairOptions& options,
@@ -204,49 +261,12 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
 
   if (options.mesh_mode == MeshMode::kDense) {
     start = Clock::now();
-    // The intermediate views' poses from the pair's points (PnP).
-    std::vector<DenseView> views;
+    ChosenIntermediateViews chosen = ChooseIntermediateViews(
+        between, out.geometry, out.point_pixels_a, camera.K(), image_a.size(), options);
     out.intermediate_views = static_cast<int>(between.size());
-    for (const IntermediateView& view : between) {
-      if (view.image.size() != image_a.size()) {
-        out.intermediate_failures.emplace_back("intermediate view of another size");
-        continue;
-      }
-      std::vector<Eigen::Vector2d> in_a, in_view;
-      in_a.reserve(view.correspondences.size());
-      in_view.reserve(view.correspondences.size());
-      for (const TrackCorrespondence& c : view.correspondences) {
-        in_a.push_back(c.pixel_a);
-        in_view.push_back(c.pixel_b);
-      }
-      const ViewPose pose = EstimateViewPose(out.geometry.points_in_cam_a, out.point_pixels_a, in_a,
-                                             in_view, camera.K(), options.view_pose);
-      if (!pose.success) {
-        out.intermediate_failures.push_back(pose.failure_reason);
-        continue;
-      }
-      // Near A it adds no depth resolution, near B no other view of the scene.
-      const double share = pose.translation_from_a.norm() / out.geometry.translation.norm();
-      if (share < options.intermediate_baseline_share[0] ||
-          share > options.intermediate_baseline_share[1]) {
-        out.intermediate_failures.push_back(
-            "view at " + std::to_string(static_cast<int>(std::lround(100 * share))) +
-            " % of B's distance from A");
-        continue;
-      }
-      views.push_back({ToGray(view.image), pose.rotation_from_a, pose.translation_from_a});
-    }
-    const double half_baseline = 0.5 * out.geometry.translation.norm();
-    auto off_halfway = [half_baseline](const DenseView& v) {
-      return std::abs(v.translation_from_a.norm() - half_baseline);
-    };
-    std::stable_sort(views.begin(), views.end(), [&](const DenseView& l, const DenseView& r) {
-      return off_halfway(l) < off_halfway(r);
-    });
-    if (views.size() > static_cast<size_t>(options.max_intermediate_views)) {
-      views.resize(static_cast<size_t>(options.max_intermediate_views));
-    }
-    out.intermediate_views_used = static_cast<int>(views.size());
+    out.intermediate_views_used = static_cast<int>(chosen.views.size());
+    out.intermediate_failures = std::move(chosen.left_out);
+    const std::vector<DenseView>& views = chosen.views;
     const DenseDepth depth = ComputeDenseDepth(gray_a, gray_b, camera.K(), out.geometry.rotation,
                                                out.geometry.translation,
                                                out.geometry.points_in_cam_a, options.dense, views);

@@ -144,6 +144,22 @@ Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& option
 IntermediateView MatchIntermediateView(const Features& features_a, const cv::Mat& image,
                                        const PairOptions& options);
 
+/// The frames between A and B the dense stage sweeps beside B.
+struct ChosenIntermediateViews {
+  std::vector<DenseView> views;       ///< Grey images with their poses from A.
+  std::vector<std::string> left_out;  ///< Why each of the others was not taken.
+};
+
+/// Poses each frame between from the pair's points (`geometry`'s points, seen in A at
+/// `point_pixels_a`) by its correspondences with A (recon/view_pose.h), keeps those at
+/// `options.intermediate_baseline_share` of B's distance from A, and takes the
+/// `options.max_intermediate_views` nearest halfway.
+ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView> between,
+                                                const TwoViewResult& geometry,
+                                                std::span<const Eigen::Vector2d> point_pixels_a,
+                                                const Eigen::Matrix3d& K, cv::Size image_size,
+                                                const PairOptions& options);
+
 /// As above, with keyframe A's features precomputed by ExtractKeyframeFeatures (the time
 /// after B arrives; `times.features_a_s` stays 0), and the keyframe gate's tracks from A to B
 /// as further correspondences (a pair with weak SIFT matching across the baseline still has

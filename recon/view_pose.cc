@@ -39,10 +39,10 @@ PnpRansacPose SolvePnpRansacRefined(std::span<const Eigen::Vector3d> points,
   }
   cv::Mat K_cv, rvec, tvec;
   cv::eigen2cv(K, K_cv);
-  out.found = cv::solvePnPRansac(object, image, K_cv, cv::noArray(), rvec, tvec, false,
-                                 options.iterations, static_cast<float>(options.threshold_px),
-                                 options.confidence, out.inliers,
-                                 options.sqpnp ? cv::SOLVEPNP_SQPNP : cv::SOLVEPNP_EPNP);
+  out.found =
+      cv::solvePnPRansac(object, image, K_cv, cv::noArray(), rvec, tvec, false, options.iterations,
+                         static_cast<float>(options.threshold_px), options.confidence, out.inliers,
+                         options.sqpnp ? cv::SOLVEPNP_SQPNP : cv::SOLVEPNP_EPNP);
   if (!out.found || out.inliers.size() < 4) {
     out.found = false;
     return out;
@@ -118,7 +118,8 @@ ViewPose EstimateViewPose(std::span<const Eigen::Vector3d> points_in_a,
   out.translation_from_a = pose.translation;
   double sum_sq = 0;
   for (int i : pose.inliers) {
-    const Eigen::Vector3d x = K * (pose.rotation * object[static_cast<size_t>(i)] + pose.translation);
+    const Eigen::Vector3d x =
+        K * (pose.rotation * object[static_cast<size_t>(i)] + pose.translation);
     sum_sq += (x.hnormalized() - image[static_cast<size_t>(i)]).squaredNorm();
   }
   out.reprojection_rms_px = std::sqrt(sum_sq / static_cast<double>(out.inliers));

@@ -63,8 +63,8 @@ inline float WindowSumAt(const float* padded, int x, int radius) {
 }
 
 // The cost from the window sums (the formula of zncc.h), as the vector code computes it.
-inline uint16_t CostFromSums(float sw, float sww, float saw, float mean_a, float var_a,
-                             float inv_n, float min_var, float scale) {
+inline uint16_t CostFromSums(float sw, float sww, float saw, float mean_a, float var_a, float inv_n,
+                             float min_var, float scale) {
   const float mean_w = sw * inv_n;
   const float mean_ww = sww * inv_n;
   const float mean_aw = saw * inv_n;
@@ -168,16 +168,16 @@ int64_t PlaneZnccCostImpl(const ZnccWindowsA& a, const float* view, float min_va
       const auto denominator = hn::Sqrt(hn::Max(variances, v_tiny));
       auto zncc = hn::Div(numerator, denominator);
       zncc = hn::IfThenElse(hn::Lt(var_w, v_min_var), v_zero, zncc);
-      const auto c = hn::Min(hn::Max(hn::Round(hn::Sub(v_scale, hn::Mul(v_scale, zncc))), v_zero),
-                             v_max);
+      const auto c =
+          hn::Min(hn::Max(hn::Round(hn::Sub(v_scale, hn::Mul(v_scale, zncc))), v_zero), v_max);
       hn::StoreU(hn::DemoteTo(du16, hn::ConvertTo(di, c)), du16, cost + row + x);
     }
     for (; x < width; ++x) {
-      cost[row + x] = zncc_detail::CostFromSums(
-          zncc_detail::WindowSumAt(rows.sw.data(), x, r),
-          zncc_detail::WindowSumAt(rows.sww.data(), x, r),
-          zncc_detail::WindowSumAt(rows.saw.data(), x, r), a.mean_a[row + x], a.var_a[row + x],
-          inv_n, min_var, scale);
+      cost[row + x] =
+          zncc_detail::CostFromSums(zncc_detail::WindowSumAt(rows.sw.data(), x, r),
+                                    zncc_detail::WindowSumAt(rows.sww.data(), x, r),
+                                    zncc_detail::WindowSumAt(rows.saw.data(), x, r),
+                                    a.mean_a[row + x], a.var_a[row + x], inv_n, min_var, scale);
     }
   }
   return HWY_TARGET;
@@ -195,7 +195,7 @@ bool PlaneZnccCost(const ZnccWindowsA& a, std::span<const float> view_in_a, floa
                    int cost_scale, std::span<uint16_t> cost, int64_t* target_used) {
   if (!zncc_detail::Fits(a, view_in_a.size(), cost.size()) || cost_scale < 1) return false;
   const int64_t target = HWY_DYNAMIC_DISPATCH(PlaneZnccCostImpl)(a, view_in_a.data(), min_var,
-                                                                  cost_scale, cost.data());
+                                                                 cost_scale, cost.data());
   if (target_used != nullptr) *target_used = target;
   return true;
 }
@@ -217,11 +217,11 @@ bool PlaneZnccCostScalar(const ZnccWindowsA& a, std::span<const float> view_in_a
     zncc_detail::PadReflect(rows.saw.data(), width, r);
     const size_t row = static_cast<size_t>(y) * width;
     for (int x = 0; x < width; ++x) {
-      cost[row + x] = zncc_detail::CostFromSums(
-          zncc_detail::WindowSumAt(rows.sw.data(), x, r),
-          zncc_detail::WindowSumAt(rows.sww.data(), x, r),
-          zncc_detail::WindowSumAt(rows.saw.data(), x, r), a.mean_a[row + x], a.var_a[row + x],
-          inv_n, min_var, static_cast<float>(cost_scale));
+      cost[row + x] = zncc_detail::CostFromSums(zncc_detail::WindowSumAt(rows.sw.data(), x, r),
+                                                zncc_detail::WindowSumAt(rows.sww.data(), x, r),
+                                                zncc_detail::WindowSumAt(rows.saw.data(), x, r),
+                                                a.mean_a[row + x], a.var_a[row + x], inv_n, min_var,
+                                                static_cast<float>(cost_scale));
     }
   }
   return true;
