@@ -345,15 +345,12 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   out.inverse_depth_step = rho_step;
 
   // A's window statistics.
-  const cv::Size window(2 * r + 1, 2 * r + 1);
-  cv::Mat a, b, mean_a, mean_aa;
+  cv::Mat a, b;
   a8.convertTo(a, CV_32F);
   b8.convertTo(b, CV_32F);
-  cv::boxFilter(a, mean_a, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  cv::boxFilter(a.mul(a), mean_aa, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  cv::Mat var_a = mean_aa - mean_a.mul(mean_a);
+  const ZnccStatsA stats_a = ComputeZnccStatsA(a, r);
   const float min_var = static_cast<float>(options.min_texture_std * options.min_texture_std);
-  const cv::Mat textured = var_a >= min_var;  // 255 where textured.
+  const cv::Mat textured = stats_a.var_a >= min_var;  // 255 where textured.
 
   // Cost volume, filled plane by plane (plane-major, contiguous writes), then transposed in
   // cache-sized blocks to pixel-major for the aggregation: cost[(y * width + x) * planes + d].
@@ -377,12 +374,7 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
   }
   const int disagreement_cap =
       static_cast<int>(std::lround(options.max_view_disagreement * kCostScale));
-  const ZnccWindowsA windows_a{.a = std::span<const float>(a.ptr<float>(), pixels),
-                               .mean_a = std::span<const float>(mean_a.ptr<float>(), pixels),
-                               .var_a = std::span<const float>(var_a.ptr<float>(), pixels),
-                               .width = width,
-                               .height = height,
-                               .radius = r};
+  const ZnccWindowsA windows_a = stats_a.Windows();
   cv::Mat warped(a.size(), CV_32F);
   cv::Mat previous_cost(a.size(), CV_16U), current_cost(a.size(), CV_16U);
   cv::Mat blended_cost(a.size(), CV_16U);

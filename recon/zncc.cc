@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/imgproc.hpp>
 #include <span>
 #include <vector>
 
@@ -190,6 +191,29 @@ HWY_AFTER_NAMESPACE();
 namespace mm {
 
 HWY_EXPORT(PlaneZnccCostImpl);
+
+ZnccWindowsA ZnccStatsA::Windows() const {
+  const size_t n = a.total();
+  return {.a = {a.ptr<float>(), n},
+          .mean_a = {mean_a.ptr<float>(), n},
+          .var_a = {var_a.ptr<float>(), n},
+          .width = a.cols,
+          .height = a.rows,
+          .radius = radius};
+}
+
+ZnccStatsA ComputeZnccStatsA(const cv::Mat& a, int radius) {
+  ZnccStatsA out;
+  out.a = a.isContinuous() ? a : a.clone();
+  out.radius = radius;
+  const cv::Size window(2 * radius + 1, 2 * radius + 1);
+  cv::Mat mean_aa;
+  cv::boxFilter(out.a, out.mean_a, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::boxFilter(out.a.mul(out.a), mean_aa, CV_32F, window, cv::Point(-1, -1), true,
+                cv::BORDER_REFLECT);
+  out.var_a = mean_aa - out.mean_a.mul(out.mean_a);
+  return out;
+}
 
 bool PlaneZnccCost(const ZnccWindowsA& a, std::span<const float> view_in_a, float min_var,
                    int cost_scale, std::span<uint16_t> cost, int64_t* target_used) {

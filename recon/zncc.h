@@ -13,6 +13,7 @@
 // Thread-safety: pure functions; reentrant (scratch rows are kept per thread).
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <span>
 
 namespace mm {
@@ -25,6 +26,18 @@ struct ZnccWindowsA {
   int height = 0;
   int radius = 3;
 };
+
+/// A's side with its images owned: the grey levels and their window means and variances
+/// (OpenCV's normalized box filters, borders reflected as the cost's own sums).
+struct ZnccStatsA {
+  cv::Mat a, mean_a, var_a;  ///< CV_32F, continuous.
+  int radius = 3;
+  /// The spans PlaneZnccCost takes; valid while this lives.
+  [[nodiscard]] ZnccWindowsA Windows() const;
+};
+
+/// `a`: grey levels, CV_32F.
+ZnccStatsA ComputeZnccStatsA(const cv::Mat& a, int radius);
 
 /// `view_in_a`: the view warped into A (width x height floats). A view window whose variance is
 /// below `min_var` (no texture) has ZNCC 0. Writes `cost` (width x height). Returns false when

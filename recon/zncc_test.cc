@@ -23,13 +23,14 @@ constexpr int kScale = 64;
 // A random grey image with a flat (textureless) block, and a second one related to it by a
 // brightness change plus noise, so that ZNCC spans most of its range.
 struct Pair {
-  cv::Mat a, view, mean_a, var_a;
+  cv::Mat view;
+  ZnccStatsA stats_a;
   ZnccWindowsA windows;
 
   Pair(int width, int height, int radius, uint32_t seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> grey(0, 255), noise(-40, 40);
-    a.create(height, width, CV_32F);
+    cv::Mat a(height, width, CV_32F);
     view.create(height, width, CV_32F);
     for (int y = 0; y < height; ++y) {
       for (int x = 0; x < width; ++x) {
@@ -39,19 +40,10 @@ struct Pair {
         view.at<float>(y, x) = flat ? 90.0f : 0.8f * g + 20 + noise(rng);
       }
     }
-    const cv::Size window(2 * radius + 1, 2 * radius + 1);
-    cv::Mat mean_aa;
-    cv::boxFilter(a, mean_a, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-    cv::boxFilter(a.mul(a), mean_aa, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-    var_a = mean_aa - mean_a.mul(mean_a);
-    const size_t n = a.total();
-    windows = {.a = {a.ptr<float>(), n},
-               .mean_a = {mean_a.ptr<float>(), n},
-               .var_a = {var_a.ptr<float>(), n},
-               .width = width,
-               .height = height,
-               .radius = radius};
+    stats_a = ComputeZnccStatsA(a, radius);
+    windows = stats_a.Windows();
   }
+  const cv::Mat& A() const { return stats_a.a; }
   std::span<const float> View() const { return {view.ptr<float>(), view.total()}; }
 };
 
@@ -63,8 +55,8 @@ double ZnccAt(const Pair& p, int x, int y, int radius, double* var_view) {
   const int n = (2 * radius + 1) * (2 * radius + 1);
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
-      const int yy = Reflect(y + dy, p.a.rows), xx = Reflect(x + dx, p.a.cols);
-      const double av = p.a.at<float>(yy, xx), wv = p.view.at<float>(yy, xx);
+      const int yy = Reflect(y + dy, p.A().rows), xx = Reflect(x + dx, p.A().cols);
+      const double av = p.A().at<float>(yy, xx), wv = p.view.at<float>(yy, xx);
       sa += av;
       sw += wv;
       saa += av * av;
@@ -82,18 +74,18 @@ TEST(PlaneZnccCost, IsOneMinusZnccInFixedPoint) {
   for (const int radius : {2, 3}) {
     const Pair p(53, 41, radius, 7);
     const float min_var = 1.0f;
-    std::vector<uint16_t> cost(p.a.total());
+    std::vector<uint16_t> cost(p.A().total());
     ASSERT_TRUE(PlaneZnccCostScalar(p.windows, p.View(), min_var, kScale, cost));
     int off_by_more_than_one = 0, textureless = 0;
     double lowest = 2, highest = 0;
-    for (int y = 0; y < p.a.rows; ++y) {
-      for (int x = 0; x < p.a.cols; ++x) {
+    for (int y = 0; y < p.A().rows; ++y) {
+      for (int x = 0; x < p.A().cols; ++x) {
         double var_view = 0;
         const double zncc = ZnccAt(p, x, y, radius, &var_view);
         const bool flat = var_view < min_var;
         textureless += flat;
         const double expected = flat ? kScale : std::clamp(kScale * (1 - zncc), 0.0, 2.0 * kScale);
-        const int got = cost[static_cast<size_t>(y) * p.a.cols + x];
+        const int got = cost[static_cast<size_t>(y) * p.A().cols + x];
         off_by_more_than_one += std::abs(got - expected) > 1.0;
         lowest = std::min(lowest, 1 - zncc);
         highest = std::max(highest, 1 - zncc);
@@ -111,12 +103,12 @@ TEST(PlaneZnccCost, IsOneMinusZnccInFixedPoint) {
 TEST(PlaneZnccCost, EqualsScalarReferenceOnEveryCompiledTarget) {
   for (const int width : {37, 320}) {  // 37: every vector width leaves a tail.
     const Pair p(width, 23, 3, 11);
-    std::vector<uint16_t> reference(p.a.total());
+    std::vector<uint16_t> reference(p.A().total());
     ASSERT_TRUE(PlaneZnccCostScalar(p.windows, p.View(), 1.0f, kScale, reference));
     int ran = 0;
     for (const int64_t target : hwy::SupportedAndGeneratedTargets()) {
       hwy::SetSupportedTargetsForTest(target);
-      std::vector<uint16_t> cost(p.a.total(), 0xFFFF);
+      std::vector<uint16_t> cost(p.A().total(), 0xFFFF);
       int64_t used = 0;
       ASSERT_TRUE(PlaneZnccCost(p.windows, p.View(), 1.0f, kScale, cost, &used));
       if (width == 37) {
@@ -134,8 +126,8 @@ TEST(PlaneZnccCost, EqualsScalarReferenceOnEveryCompiledTarget) {
 
 TEST(PlaneZnccCost, RefusesSizesThatDoNotFit) {
   const Pair p(20, 12, 3, 1);
-  std::vector<uint16_t> cost(p.a.total());
-  std::vector<uint16_t> short_cost(p.a.total() - 1);
+  std::vector<uint16_t> cost(p.A().total());
+  std::vector<uint16_t> short_cost(p.A().total() - 1);
   EXPECT_FALSE(PlaneZnccCost(p.windows, p.View(), 1.0f, kScale, short_cost));
   ZnccWindowsA too_wide_window = p.windows;
   too_wide_window.radius = 6;  // 13 rows > 12.
