@@ -59,7 +59,7 @@ T Integer(const json& j, const char* key) {
   return *value;
 }
 
-// "reason; reason" of the intermediate views the dense stage left out.
+// "reason; reason" of the source views the dense stage left out.
 std::string JoinLeftOut(const std::vector<std::string>& reasons) {
   std::string out;
   for (const std::string& reason : reasons) out += (out.empty() ? "" : "; ") + reason;
@@ -222,7 +222,8 @@ EntryReport MakeEntryReport(const PairReconstruction& r, const KeyframeInfo& a,
   report.meshing = {.mode = MeshModeName(r.mesh_mode),
                     .dense_valid_fraction = r.dense_valid_fraction,
                     .dense_planes = r.dense_planes,
-                    .dense_views_between = r.intermediate_views_used,
+                    .dense_views_between = r.intermediate_views_used - r.views_before_a_used,
+                    .dense_views_before_a = r.views_before_a_used,
                     .dense_views_left_out = JoinLeftOut(r.intermediate_failures),
                     .dense_dropped_no_depth = r.dense_mesh_summary.dropped_no_depth,
                     .dense_dropped_bridging = r.dense_mesh_summary.dropped_bridging,
@@ -321,6 +322,7 @@ json ToJson(const EntryReport& r) {
                        {"dense_valid_fraction", m.dense_valid_fraction},
                        {"dense_planes", m.dense_planes},
                        {"dense_views_between", m.dense_views_between},
+                       {"dense_views_before_a", m.dense_views_before_a},
                        {"dense_views_left_out", m.dense_views_left_out},
                        {"dense_dropped_no_depth", m.dense_dropped_no_depth},
                        {"dense_dropped_bridging", m.dense_dropped_bridging},
@@ -436,6 +438,7 @@ std::string FromJson(const json& j, EntryReport* out) {
     Read(m, "dense_valid_fraction", &r.meshing.dense_valid_fraction);
     Read(m, "dense_planes", &r.meshing.dense_planes);
     Read(m, "dense_views_between", &r.meshing.dense_views_between);
+    Read(m, "dense_views_before_a", &r.meshing.dense_views_before_a);
     Read(m, "dense_views_left_out", &r.meshing.dense_views_left_out);
     Read(m, "dense_dropped_no_depth", &r.meshing.dense_dropped_no_depth);
     Read(m, "dense_dropped_bridging", &r.meshing.dense_dropped_bridging);

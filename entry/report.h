@@ -142,8 +142,10 @@ struct EntryReport {
     /// dropped triangles, and why the entry fell back to the sparse mesh (empty: it did not).
     double dense_valid_fraction = 0.0;
     int dense_planes = 0;
-    /// Frames between A and B the sweep used beside B, and why the others were left out.
+    /// Source views the sweep used beside B (frames between A and B, and of them, before A),
+    /// and why the others were left out.
     int dense_views_between = 0;
+    int dense_views_before_a = 0;
     std::string dense_views_left_out;
     int dense_dropped_no_depth = 0;
     int dense_dropped_bridging = 0;

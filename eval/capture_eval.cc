@@ -12,6 +12,7 @@
 #include "entry/json_text.h"
 #include "eval/tum_pairs.h"
 #include "recon/epipolar.h"
+#include "session/recent_frames.h"
 
 namespace mm {
 namespace {
@@ -73,6 +74,8 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
   double worker_free_at = 0.0;
   double result_at = 0.0;
   Features features_a;
+  std::vector<SourceView> views_before_a;  // A's corners tracked back, as the worker does.
+  RecentFrames recent_frames;              // As the daemon keeps them.
   cv::Mat image_a;
   std::optional<PairReconstruction> pending;
   double pending_b_time = 0.0;
@@ -115,6 +118,8 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
         current.track_inliers = r.track_inliers;
         current.points = static_cast<int>(r.geometry.points_in_cam_a.size());
         current.median_triangulation_angle_deg = r.geometry.median_triangulation_angle_deg;
+        current.dense_views_between = r.intermediate_views_used - r.views_before_a_used;
+        current.dense_views_before_a = r.views_before_a_used;
         if (gt) {
           const auto wa = gt->WorldFromCamAt(current.time_a_s, options.max_gt_dt_s);
           const auto wb = gt->WorldFromCamAt(current.time_b_s, options.max_gt_dt_s);
@@ -139,6 +144,7 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
       return result;
     }
     const cv::Mat undistorted = undistorter.Apply(raw);
+    const cv::Mat gray = ToGray(undistorted);
     // 2. The press.
     if (!capture_open && (press_now || t >= next_press)) {
       press_now = false;
@@ -148,18 +154,24 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
       current.time_a_s = t;
       current.image_a = frames[i].path.filename().string();
       image_a = undistorted.clone();
-      session.Start(ToGray(undistorted), t);
+      session.Start(gray, t);
       const auto start = Clock::now();
       features_a = ExtractKeyframeFeatures(image_a, options.pair);
+      views_before_a.clear();
+      if (options.pair.mesh_mode == MeshMode::kDense) {
+        views_before_a = ViewsBeforeA(gray, recent_frames.BeforeA(t), options.session.gate);
+      }
       worker_free_at = t + latency(SecondsSince(start));
       capture_open = true;
+      recent_frames.Add(gray, t);
       continue;
     }
+    recent_frames.Add(gray, t);
     if (!capture_open) continue;
     // 3. The gate on this frame.
     const bool can_submit = !pending && t >= worker_free_at;
     const CaptureSession::Step step =
-        session.OnFrame(ToGray(undistorted), static_cast<uint64_t>(i), t, can_submit);
+        session.OnFrame(gray, static_cast<uint64_t>(i), t, can_submit);
     if (options.log_gate) {
       const GateDecision& d = session.last_decision();
       char line[400];
@@ -178,7 +190,8 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
     if (step != CaptureSession::Step::kSubmitB) continue;
     std::vector<TrackCorrespondence> tracks;
     if (options.use_tracks) tracks = session.Tracks();
-    const std::vector<IntermediateView> between = session.Between();
+    std::vector<SourceView> between = session.Between();
+    between.insert(between.end(), views_before_a.begin(), views_before_a.end());
     const auto start = Clock::now();
     pending = ReconstructPair(features_a, image_a, undistorted, cam, options.pair, tracks, between);
     current.recon_wall_s = SecondsSince(start);
@@ -224,10 +237,11 @@ std::string FormatCaptureLine(const CaptureEval& c) {
     std::snprintf(line, sizeof(line),
                   "t=%7.3f  A %s  B %s  ok  rot %.3f deg  trans %.2f deg  %zu tries  "
                   "entry after %.2f s  %d matches + %d tracks -> %d inliers (%d tracks), "
-                  "angle %.2f deg",
+                  "angle %.2f deg, dense views %d between + %d before A",
                   c.trigger_time_s, c.image_a.c_str(), c.image_b.c_str(), c.rot_err_deg,
                   c.trans_err_deg, c.tries.size(), c.trigger_to_entry_s, c.matches, c.tracks_used,
-                  c.inliers, c.track_inliers, c.median_triangulation_angle_deg);
+                  c.inliers, c.track_inliers, c.median_triangulation_angle_deg,
+                  c.dense_views_between, c.dense_views_before_a);
   } else {
     std::snprintf(line, sizeof(line), "t=%7.3f  A %s  %s  %zu tries  %s", c.trigger_time_s,
                   c.image_a.c_str(), c.unfinished ? "unfinished (video ended)" : "FAILED",
@@ -305,7 +319,9 @@ std::string CaptureEvalToJson(const CaptureEvalResult& r) {
                         {"inliers", c.inliers},
                         {"track_inliers", c.track_inliers},
                         {"points", c.points},
-                        {"median_triangulation_angle_deg", c.median_triangulation_angle_deg}});
+                        {"median_triangulation_angle_deg", c.median_triangulation_angle_deg},
+                        {"dense_views_between", c.dense_views_between},
+                        {"dense_views_before_a", c.dense_views_before_a}});
   }
   const CaptureEvalSummary& s = r.summary;
   nlohmann::json summary = {{"captures",

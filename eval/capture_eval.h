@@ -52,6 +52,8 @@ struct CaptureEval {
   double recon_wall_s = 0.0;        ///< Wall time of the accepted reconstruction.
   int matches = 0, tracks_used = 0, inliers = 0, track_inliers = 0, points = 0;
   double median_triangulation_angle_deg = 0.0;
+  /// Dense mode: source views the sweep used beside B, between A and B and before A.
+  int dense_views_between = 0, dense_views_before_a = 0;
   std::vector<std::string> gate_log;  ///< With log_gate: one line per frame.
 };
 

@@ -88,13 +88,13 @@ int main(int argc, char** argv) {
     std::vector<DenseView> between;
     if (const char* e = std::getenv("MM_BETWEEN"); e && std::atoi(e) > 0) {
       const Features features_a = ExtractKeyframeFeatures(a, po);
-      std::vector<IntermediateView> offered;
+      std::vector<SourceView> offered;
       for (int im = 1; im < ib; ++im) {
-        offered.push_back(MatchIntermediateView(
+        offered.push_back(MatchSourceView(
             features_a, cv::imread(frames[static_cast<size_t>(im)].path.string()), po));
       }
-      ChosenIntermediateViews chosen =
-          ChooseIntermediateViews(offered, r.geometry, r.point_pixels_a, camera.K(), a.size(), po);
+      ChosenSourceViews chosen =
+          ChooseSourceViews(offered, r.geometry, r.point_pixels_a, camera.K(), a.size(), po);
       for (const std::string& reason : chosen.left_out) {
         std::printf("  frame between left out: %s\n", reason.c_str());
       }

@@ -178,9 +178,9 @@ TEST_F(MeshQuality, AFrameBetweenRaisesCoverageAndLowersTheFarOffShare) {
     const cv::Mat a = Image(0), b = Image(ib);
     const PairOptions options;
     const Features features_a = ExtractKeyframeFeatures(a, options);
-    std::vector<IntermediateView> between;
+    std::vector<SourceView> between;
     for (int im = 1; im < ib; ++im)
-      between.push_back(MatchIntermediateView(features_a, Image(im), options));
+      between.push_back(MatchSourceView(features_a, Image(im), options));
     const PairReconstruction two = ReconstructPair(a, b, camera_, options);
     const PairReconstruction three = ReconstructPair(a, b, camera_, options, between);
     ASSERT_TRUE(two.success && three.success);

@@ -202,14 +202,30 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     const Features features_a = ExtractKeyframeFeatures(image_a, options.pair);
     // The middle frames between A and B, matched to A (outside the timing: the appliance has
     // the gate's tracks); the reconstruction takes the one nearest halfway.
-    std::vector<IntermediateView> between;
+    std::vector<SourceView> between;
     if (options.intermediate_view && options.pair.mesh_mode == MeshMode::kDense) {
       // The middle frame (both middle ones for an odd step).
       for (size_t m = i + step / 2; m <= i + (step + 1) / 2 && m > i && m < i + step; ++m) {
         const cv::Mat image_m = load(frames[m].path);
         if (!image_m.empty()) {
-          between.push_back(MatchIntermediateView(features_a, image_m, options.pair));
+          between.push_back(MatchSourceView(features_a, image_m, options.pair));
         }
+      }
+    }
+    if (options.views_before_a && options.pair.mesh_mode == MeshMode::kDense) {
+      // The frames the daemon would hold before A (it tracks A's corners back to them; here,
+      // as for the frames between, SIFT matches with A stand in for the tracks).
+      RecentFrames recent(options.recent_frames);
+      const double horizon_s = options.recent_frames.seconds_before_a.empty()
+                                   ? 0.0
+                                   : 1.5 * options.recent_frames.seconds_before_a.back();
+      for (size_t j = 0; j < i; ++j) {
+        if (frames[j].timestamp_s < frames[i].timestamp_s - horizon_s) continue;
+        const cv::Mat image_j = load(frames[j].path);
+        if (!image_j.empty()) recent.Add(image_j, frames[j].timestamp_s);
+      }
+      for (const cv::Mat& image_before : recent.BeforeA(frames[i].timestamp_s)) {
+        between.push_back(MatchSourceView(features_a, image_before, options.pair));
       }
     }
     // Timed twice: from two images, and (the appliance's case) with A's features given.
@@ -289,6 +305,8 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
             p.mesh.vertices = static_cast<int>(r.mesh.vertices.size());
             p.mesh.triangles = static_cast<int>(r.mesh.triangles.size());
             p.mesh.intermediate_views = r.intermediate_views_used;
+            p.mesh.views_before_a = r.views_before_a_used;
+            p.mesh.views_left_out = r.intermediate_failures;
           }
         }
       }
@@ -325,9 +343,10 @@ std::string FormatPairLine(const PairEval& p) {
   }
   if (p.mesh.valid) {
     std::snprintf(buf, sizeof(buf),
-                  "  mesh %s (%d vertices, %d views between): coverage %.1f %%, depth err %.2f %% "
-                  "(p90 %.1f %%, flying %.1f %%)",
-                  p.mesh.mode.c_str(), p.mesh.vertices, p.mesh.intermediate_views,
+                  "  mesh %s (%d vertices, %d views between, %d before A): coverage %.1f %%, "
+                  "depth err %.2f %% (p90 %.1f %%, flying %.1f %%)",
+                  p.mesh.mode.c_str(), p.mesh.vertices,
+                  p.mesh.intermediate_views - p.mesh.views_before_a, p.mesh.views_before_a,
                   100 * p.mesh.coverage, 100 * p.mesh.depth_rel_err_median,
                   100 * p.mesh.depth_rel_err_p90, 100 * p.mesh.flying);
     line += buf;
@@ -499,7 +518,9 @@ std::string EvalToJson(const EvalResult& result) {
                    {"mode", p.mesh.mode},
                    {"vertices", p.mesh.vertices},
                    {"triangles", p.mesh.triangles},
-                   {"intermediate_views", p.mesh.intermediate_views}};
+                   {"intermediate_views", p.mesh.intermediate_views},
+                   {"views_before_a", p.mesh.views_before_a},
+                   {"views_left_out", p.mesh.views_left_out}};
     }
     pairs.push_back(std::move(j));
   }

@@ -16,6 +16,7 @@
 #include "calib/camera_model.h"
 #include "recon/pipeline.h"
 #include "scale/metric_scale.h"
+#include "session/recent_frames.h"
 
 namespace mm {
 
@@ -31,7 +32,10 @@ struct MeshFigures {
   std::string mode;     ///< The mesh the pair got: "dense" or "sparse".
   int vertices = 0;
   int triangles = 0;
-  int intermediate_views = 0;  ///< Frames between A and B the dense sweep used.
+  /// Source views the dense sweep used beside B (between A and B, and before A).
+  int intermediate_views = 0;
+  int views_before_a = 0;                   ///< Of them, before A.
+  std::vector<std::string> views_left_out;  ///< Why each other source view was not used.
 };
 
 struct EvalOptions {
@@ -45,6 +49,12 @@ struct EvalOptions {
   /// intermediate views for the dense stage (it takes the one nearest halfway), their
   /// correspondences with A by SIFT matching (in the appliance: the gate's tracks).
   bool intermediate_view = true;
+  /// Frames of the list before A, as the daemon keeps them (session/recent_frames.h), as
+  /// source views before A (their correspondences with A by SIFT matching; in the appliance:
+  /// A's corners tracked back, session/capture_session.h ViewsBeforeA); the reconstruction
+  /// poses each and takes the one nearest half of B's distance.
+  bool views_before_a = true;
+  RecentFramesOptions recent_frames;  ///< Which frames before A (views_before_a).
   bool mesh_figures = false;       ///< Mesh figures where depth is known (EvaluatePairMesh).
   /// Metric scale per pair (scale/metric_scale.h); source none: no scale figures. The
   /// odometry is simulated from the ground truth: each keyframe's camera centre plus

@@ -21,14 +21,72 @@ std::string KeyframeGateOptions::Check() const {
   return two_view.Check();
 }
 
+std::vector<cv::Point2f> DetectGateCorners(const cv::Mat& gray_a,
+                                           const KeyframeGateOptions& options) {
+  CV_Assert(gray_a.type() == CV_8UC1);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(gray_a, corners, options.max_corners, options.corner_quality,
+                          options.min_corner_distance_px);
+  return corners;
+}
+
+void TrackForwardBackward(const cv::Mat& from, const cv::Mat& to,
+                          const KeyframeGateOptions& options, std::vector<cv::Point2f>* origins_a,
+                          std::vector<cv::Point2f>* points) {
+  CV_Assert(to.type() == CV_8UC1 && to.size() == from.size());
+  CV_Assert(origins_a->size() == points->size());
+  if (points->size() < 8) {
+    origins_a->clear();
+    points->clear();
+    return;
+  }
+  // Track forward, then back: keep tracks that return to where they started (Kalal et al.,
+  // forward-backward error, ICPR 2010).
+  const cv::Size window(options.klt_window_px, options.klt_window_px);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+  std::vector<cv::Point2f> next, back;
+  std::vector<uchar> status, status_back;
+  std::vector<float> error, error_back;
+  cv::calcOpticalFlowPyrLK(from, to, *points, next, status, error, window, options.klt_levels,
+                           criteria);
+  cv::calcOpticalFlowPyrLK(to, from, next, back, status_back, error_back, window,
+                           options.klt_levels, criteria);
+  std::vector<cv::Point2f> kept_a, kept_next;
+  for (size_t i = 0; i < next.size(); ++i) {
+    const bool inside =
+        next[i].x >= 0 && next[i].y >= 0 && next[i].x < to.cols - 1 && next[i].y < to.rows - 1;
+    const float fb = static_cast<float>(cv::norm(back[i] - (*points)[i]));
+    if (status[i] && status_back[i] && inside && error[i] < options.max_klt_error &&
+        fb < options.max_forward_backward_px) {
+      kept_a.push_back((*origins_a)[i]);
+      kept_next.push_back(next[i]);
+    }
+  }
+  *origins_a = std::move(kept_a);
+  *points = std::move(kept_next);
+}
+
+std::vector<GateWaypoint> TrackBackFromA(const cv::Mat& gray_a,
+                                         std::span<const cv::Mat> frames_before_a,
+                                         const KeyframeGateOptions& options) {
+  std::vector<GateWaypoint> out;
+  std::vector<cv::Point2f> origins_a = DetectGateCorners(gray_a, options);
+  std::vector<cv::Point2f> points = origins_a;
+  const cv::Mat* previous = &gray_a;
+  for (const cv::Mat& frame : frames_before_a) {
+    TrackForwardBackward(*previous, frame, options, &origins_a, &points);
+    if (static_cast<int>(points.size()) < options.min_tracks) break;
+    out.push_back(GateWaypoint{frame, origins_a, points, 0.0});
+    previous = &frame;
+  }
+  return out;
+}
+
 KeyframeGate::KeyframeGate(const Eigen::Matrix3d& K, KeyframeGateOptions options)
     : K_(K), options_(options), target_parallax_deg_(options.parallax_deg) {}
 
 int KeyframeGate::Start(const cv::Mat& gray_a) {
-  CV_Assert(gray_a.type() == CV_8UC1);
-  points_a_.clear();
-  cv::goodFeaturesToTrack(gray_a, points_a_, options_.max_corners, options_.corner_quality,
-                          options_.min_corner_distance_px);
+  points_a_ = DetectGateCorners(gray_a, options_);
   points_prev_ = points_a_;
   previous_ = gray_a.clone();
   target_parallax_deg_ = options_.parallax_deg;
@@ -39,35 +97,7 @@ int KeyframeGate::Start(const cv::Mat& gray_a) {
 GateDecision KeyframeGate::Update(const cv::Mat& gray) {
   CV_Assert(gray.type() == CV_8UC1 && gray.size() == previous_.size());
   GateDecision d;
-  if (points_prev_.size() >= 8) {
-    // Track forward, then back: keep tracks that return to where they started (Kalal et al.,
-    // forward-backward error, ICPR 2010).
-    const cv::Size window(options_.klt_window_px, options_.klt_window_px);
-    const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-    std::vector<cv::Point2f> next, back;
-    std::vector<uchar> status, status_back;
-    std::vector<float> error, error_back;
-    cv::calcOpticalFlowPyrLK(previous_, gray, points_prev_, next, status, error, window,
-                             options_.klt_levels, criteria);
-    cv::calcOpticalFlowPyrLK(gray, previous_, next, back, status_back, error_back, window,
-                             options_.klt_levels, criteria);
-    std::vector<cv::Point2f> kept_a, kept_next;
-    for (size_t i = 0; i < next.size(); ++i) {
-      const bool inside = next[i].x >= 0 && next[i].y >= 0 && next[i].x < gray.cols - 1 &&
-                          next[i].y < gray.rows - 1;
-      const float fb = static_cast<float>(cv::norm(back[i] - points_prev_[i]));
-      if (status[i] && status_back[i] && inside && error[i] < options_.max_klt_error &&
-          fb < options_.max_forward_backward_px) {
-        kept_a.push_back(points_a_[i]);
-        kept_next.push_back(next[i]);
-      }
-    }
-    points_a_ = std::move(kept_a);
-    points_prev_ = std::move(kept_next);
-  } else {
-    points_a_.clear();
-    points_prev_.clear();
-  }
+  TrackForwardBackward(previous_, gray, options_, &points_a_, &points_prev_);
   previous_ = gray.clone();
   d.tracks = static_cast<int>(points_a_.size());
   if (d.tracks < options_.min_tracks) {

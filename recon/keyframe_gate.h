@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -72,6 +73,26 @@ struct GateWaypoint {
   std::vector<cv::Point2f> positions;
   double parallax_deg = 0;  ///< The gate's median triangulation angle at it (0: none measured).
 };
+
+/// The corners of A the gate tracks (Shi-Tomasi with the options' count, quality, spacing).
+std::vector<cv::Point2f> DetectGateCorners(const cv::Mat& gray_a,
+                                           const KeyframeGateOptions& options);
+
+/// One step of the gate's tracking: `points` (in `from`, 8-bit gray) into `to` (same size) by
+/// pyramidal KLT; keeps the tracks, and their `origins_a` (index-aligned), that stay inside
+/// `to`, within the KLT error and track back to where they started. Fewer than 8: none kept.
+void TrackForwardBackward(const cv::Mat& from, const cv::Mat& to,
+                          const KeyframeGateOptions& options, std::vector<cv::Point2f>* origins_a,
+                          std::vector<cv::Point2f>* points);
+
+/// Frames before keyframe A with A's corners tracked back to them, as source views before A
+/// for the dense stage: A's corners (DetectGateCorners) are tracked frame to frame back
+/// through `frames_before_a` (8-bit gray, A's size, newest first) as the gate tracks
+/// forward. One waypoint per frame reached with at least options.min_tracks tracks (the
+/// tracking stops at the first frame with fewer); parallax_deg is 0 (not measured).
+std::vector<GateWaypoint> TrackBackFromA(const cv::Mat& gray_a,
+                                         std::span<const cv::Mat> frames_before_a,
+                                         const KeyframeGateOptions& options);
 
 class KeyframeGate {
  public:

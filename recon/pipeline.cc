@@ -75,6 +75,9 @@ std::string PairOptions::Check() const {
   if (max_intermediate_views < 0 || max_intermediate_views > 8) {
     return "max_intermediate_views: must be in [0, 8]";
   }
+  if (max_views_before_a < 0 || max_views_before_a > 8) {
+    return "max_views_before_a: must be in [0, 8]";
+  }
   if (!(intermediate_baseline_share[0] >= 0 &&
         intermediate_baseline_share[1] >= intermediate_baseline_share[0])) {
     return "intermediate_baseline_share: must be 0 <= low <= high";
@@ -87,9 +90,9 @@ Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& option
   return ExtractSift(ToGray(image), options.sift);
 }
 
-IntermediateView MatchIntermediateView(const Features& features_a, const cv::Mat& image,
-                                       const PairOptions& options) {
-  IntermediateView view{image, {}};
+SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
+                           const PairOptions& options) {
+  SourceView view{image, {}};
   if (image.empty()) return view;
   const Features features = ExtractKeyframeFeatures(image, options);
   for (const Match& m :
@@ -135,7 +138,7 @@ void ScalePairReconstruction(double metres_per_unit, PairReconstruction* pair) {
 
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options,
-                                   std::span<const IntermediateView> between) {
+                                   std::span<const SourceView> between) {
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
     PairReconstruction out;
     out.failure_reason = "keyframes are empty or of different sizes";
@@ -150,20 +153,22 @@ PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_
   return out;
 }
 
-ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView> between,
-                                                const TwoViewResult& geometry,
-                                                std::span<const Eigen::Vector2d> point_pixels_a,
-                                                const Eigen::Matrix3d& K, cv::Size image_size,
-                                                const PairOptions& options) {
-  ChosenIntermediateViews out;
+ChosenSourceViews ChooseSourceViews(std::span<const SourceView> between,
+                                    const TwoViewResult& geometry,
+                                    std::span<const Eigen::Vector2d> point_pixels_a,
+                                    const Eigen::Matrix3d& K, cv::Size image_size,
+                                    const PairOptions& options) {
+  ChosenSourceViews out;
   struct Posed {
-    const IntermediateView* view;
+    const SourceView* view;
     ViewPose pose;
+    bool before_a;
   };
   std::vector<Posed> posed;
-  for (const IntermediateView& view : between) {
+  const Eigen::Vector3d centre_b = -geometry.rotation.transpose() * geometry.translation;
+  for (const SourceView& view : between) {
     if (view.image.size() != image_size) {
-      out.left_out.emplace_back("intermediate view of another size");
+      out.left_out.emplace_back("source view of another size");
       continue;
     }
     std::vector<Eigen::Vector2d> in_a, in_view;
@@ -179,7 +184,7 @@ ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView
       out.left_out.push_back(std::move(pose.failure_reason));
       continue;
     }
-    // Near A it adds no depth resolution, near B no other view of the scene.
+    // Near A it adds no depth resolution, far from it no other view of the scene.
     const double share = pose.translation_from_a.norm() / geometry.translation.norm();
     if (share < options.intermediate_baseline_share[0] ||
         share > options.intermediate_baseline_share[1]) {
@@ -188,7 +193,9 @@ ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView
                              " % of B's distance from A");
       continue;
     }
-    posed.push_back({&view, std::move(pose)});
+    const Eigen::Vector3d centre = -pose.rotation_from_a.transpose() * pose.translation_from_a;
+    const bool before_a = centre.dot(centre_b) < 0;
+    posed.push_back({&view, std::move(pose), before_a});
   }
   const double half_baseline = 0.5 * geometry.translation.norm();
   auto off_halfway = [half_baseline](const Posed& v) {
@@ -196,13 +203,16 @@ ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView
   };
   std::stable_sort(posed.begin(), posed.end(),
                    [&](const Posed& l, const Posed& r) { return off_halfway(l) < off_halfway(r); });
-  for (size_t i = 0; i < posed.size(); ++i) {
-    if (i >= static_cast<size_t>(options.max_intermediate_views)) {
+  int taken_between = 0;
+  for (const Posed& v : posed) {
+    const int limit = v.before_a ? options.max_views_before_a : options.max_intermediate_views;
+    int& taken = v.before_a ? out.before_a : taken_between;
+    if (taken >= limit) {
       out.left_out.emplace_back("a view nearer halfway was taken");
       continue;
     }
-    out.views.push_back({ToGray(posed[i].view->image), posed[i].pose.rotation_from_a,
-                         posed[i].pose.translation_from_a});
+    ++taken;
+    out.views.push_back({ToGray(v.view->image), v.pose.rotation_from_a, v.pose.translation_from_a});
   }
   return out;
 }
@@ -211,7 +221,7 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
                                    const cv::Mat& image_b, const BouguetCamera& camera,
                                    const PairOptions& options,
                                    std::span<const TrackCorrespondence> tracks,
-                                   std::span<const IntermediateView> between) {
+                                   std::span<const SourceView> between) {
   PairReconstruction out;
   if (image_a.empty() || image_b.empty() || image_a.size() != image_b.size()) {
     out.failure_reason = "keyframes are empty or of different sizes";
@@ -261,10 +271,11 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
 
   if (options.mesh_mode == MeshMode::kDense) {
     start = Clock::now();
-    ChosenIntermediateViews chosen = ChooseIntermediateViews(
-        between, out.geometry, out.point_pixels_a, camera.K(), image_a.size(), options);
+    ChosenSourceViews chosen = ChooseSourceViews(between, out.geometry, out.point_pixels_a,
+                                                 camera.K(), image_a.size(), options);
     out.intermediate_views = static_cast<int>(between.size());
     out.intermediate_views_used = static_cast<int>(chosen.views.size());
+    out.views_before_a_used = chosen.before_a;
     out.intermediate_failures = std::move(chosen.left_out);
     const std::vector<DenseView>& views = chosen.views;
     const DenseDepth depth = ComputeDenseDepth(gray_a, gray_b, camera.K(), out.geometry.rotation,

@@ -31,10 +31,11 @@ struct TrackCorrespondence {
   Eigen::Vector2d pixel_b;
 };
 
-/// A frame between A and B (undistorted, A's size) with correspondences to A (the gate's
-/// tracks at that frame, or feature matches): its pose comes from the pair's points
-/// (recon/view_pose.h), and the dense stage sweeps over it beside B.
-struct IntermediateView {
+/// A source view of the dense stage beside B: a frame between A and B or shortly before A
+/// (undistorted, A's size) with correspondences to A (the gate's tracks at that frame, tracks
+/// back from A, or feature matches). Its pose comes from the pair's points
+/// (recon/view_pose.h); which side of A it lies on follows from that pose.
+struct SourceView {
   cv::Mat image;                                     ///< BGR8 or GRAY8.
   std::vector<TrackCorrespondence> correspondences;  ///< pixel_a in A, pixel_b in this view.
 };
@@ -59,12 +60,18 @@ struct PairOptions {
   /// Tracks join the SIFT matches as correspondences; a track whose A pixel lies within this
   /// of a matched SIFT keypoint in A is the same point twice and is left out.
   double track_duplicate_px = 2.0;
-  ViewPoseOptions view_pose;  ///< Intermediate views' poses.
-  /// Of the intermediate views whose pose was found, the dense sweep takes this many: those
-  /// whose distance from A is nearest half of B's (each view's sweep costs about as much as
-  /// B's; halfway, the view sees much of what B's occludes, and with a different baseline).
+  ViewPoseOptions view_pose;  ///< Source views' poses.
+  /// Of the source views between A and B (centre on B's side of A) whose pose was found, the
+  /// dense sweep takes this many: those whose distance from A is nearest half of B's (each
+  /// view's sweep costs about as much as B's; halfway, the view sees much of what B's
+  /// occludes, and with a different baseline).
   int max_intermediate_views = 1;
-  /// An intermediate view is used only when its distance from A is within this share of B's.
+  /// Of the source views before A (centre on the side of A away from B), the same: a view
+  /// behind A sees the part of A's image that B's motion moves out of view (A's border when
+  /// moving forward, the trailing side when moving sideways) and the other side of A's
+  /// occlusions.
+  int max_views_before_a = 1;
+  /// A source view is used only when its distance from A is within this share of B's.
   std::array<double, 2> intermediate_baseline_share = {0.2, 0.8};
   [[nodiscard]] std::string Check() const;
 };
@@ -105,10 +112,11 @@ struct PairReconstruction {
   std::vector<Eigen::Vector3d> dense_points_in_a;
   int dense_planes = 0;
   std::string dense_failure_reason;
-  /// Intermediate views given, and those whose pose was found and joined the dense sweep
-  /// (the others' reasons in intermediate_failures).
+  /// Source views given, and those whose pose was found and joined the dense sweep (the
+  /// others' reasons in intermediate_failures), of which views_before_a_used lie before A.
   int intermediate_views = 0;
   int intermediate_views_used = 0;
+  int views_before_a_used = 0;
   std::vector<std::string> intermediate_failures;
   StageTimes times;
 
@@ -124,7 +132,7 @@ struct PairReconstruction {
 /// distortion expected). Data failures are reported in the result, never thrown.
 PairReconstruction ReconstructPair(const cv::Mat& image_a, const cv::Mat& image_b,
                                    const BouguetCamera& camera, const PairOptions& options,
-                                   std::span<const IntermediateView> between = {});
+                                   std::span<const SourceView> between = {});
 
 /// 8-bit gray of a BGR8 or GRAY8 image (a GRAY8 image is returned as it is, not copied).
 cv::Mat ToGray(const cv::Mat& image);
@@ -138,27 +146,30 @@ void ScalePairReconstruction(double metres_per_unit, PairReconstruction* pair);
 /// while the appliance waits for B.
 Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& options);
 
-/// An intermediate view from a frame (BGR8 or GRAY8, A's size) whose correspondences with A
+/// A source view from a frame (BGR8 or GRAY8, A's size) whose correspondences with A
 /// come from SIFT matching against A's features (where no gate tracked the frame, e.g. a
 /// keyframe list in `monomesh eval`).
-IntermediateView MatchIntermediateView(const Features& features_a, const cv::Mat& image,
-                                       const PairOptions& options);
+SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
+                           const PairOptions& options);
 
-/// The frames between A and B the dense stage sweeps beside B.
-struct ChosenIntermediateViews {
+/// The source views the dense stage sweeps beside B.
+struct ChosenSourceViews {
   std::vector<DenseView> views;       ///< Grey images with their poses from A.
+  int before_a = 0;                   ///< Of them, those before A.
   std::vector<std::string> left_out;  ///< Why each of the others was not taken.
 };
 
-/// Poses each frame between from the pair's points (`geometry`'s points, seen in A at
+/// Poses each source view from the pair's points (`geometry`'s points, seen in A at
 /// `point_pixels_a`) by its correspondences with A (recon/view_pose.h), keeps those at
-/// `options.intermediate_baseline_share` of B's distance from A, and takes the
-/// `options.max_intermediate_views` nearest halfway.
-ChosenIntermediateViews ChooseIntermediateViews(std::span<const IntermediateView> between,
-                                                const TwoViewResult& geometry,
-                                                std::span<const Eigen::Vector2d> point_pixels_a,
-                                                const Eigen::Matrix3d& K, cv::Size image_size,
-                                                const PairOptions& options);
+/// `options.intermediate_baseline_share` of B's distance from A, and takes, on each side of A
+/// (between A and B: the centre on B's side of the plane through A normal to the baseline;
+/// before A: on the other), the `options.max_intermediate_views` and
+/// `options.max_views_before_a` nearest halfway.
+ChosenSourceViews ChooseSourceViews(std::span<const SourceView> between,
+                                    const TwoViewResult& geometry,
+                                    std::span<const Eigen::Vector2d> point_pixels_a,
+                                    const Eigen::Matrix3d& K, cv::Size image_size,
+                                    const PairOptions& options);
 
 /// As above, with keyframe A's features precomputed by ExtractKeyframeFeatures (the time
 /// after B arrives; `times.features_a_s` stays 0), and the keyframe gate's tracks from A to B
@@ -168,6 +179,6 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
                                    const cv::Mat& image_b, const BouguetCamera& camera,
                                    const PairOptions& options,
                                    std::span<const TrackCorrespondence> tracks = {},
-                                   std::span<const IntermediateView> between = {});
+                                   std::span<const SourceView> between = {});
 
 }  // namespace mm

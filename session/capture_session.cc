@@ -20,6 +20,20 @@ std::vector<TrackCorrespondence> Correspondences(const std::vector<cv::Point2f>&
 
 }  // namespace
 
+SourceView SourceViewOf(const GateWaypoint& waypoint) {
+  return {waypoint.gray, Correspondences(waypoint.origins_a, waypoint.positions)};
+}
+
+std::vector<SourceView> ViewsBeforeA(const cv::Mat& gray_a,
+                                     std::span<const cv::Mat> frames_before_a,
+                                     const KeyframeGateOptions& options) {
+  std::vector<SourceView> out;
+  for (const GateWaypoint& w : TrackBackFromA(gray_a, frames_before_a, options)) {
+    out.push_back(SourceViewOf(w));
+  }
+  return out;
+}
+
 const char* CaptureEndName(CaptureEnd end) {
   switch (end) {
     case CaptureEnd::kOpen:
@@ -174,10 +188,10 @@ CaptureSession::Step CaptureSession::OnTime(double time_s) {
   return Fail(CaptureEnd::kTimeout, std::move(reason));
 }
 
-std::vector<IntermediateView> CaptureSession::Between() const {
+std::vector<SourceView> CaptureSession::Between() const {
   const GateWaypoint& frame = gate_.halfway();
   if (frame.gray.empty()) return {};
-  return {IntermediateView{frame.gray, Correspondences(frame.origins_a, frame.positions)}};
+  return {SourceViewOf(frame)};
 }
 
 std::vector<TrackCorrespondence> CaptureSession::Tracks() const {

@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,15 @@ struct CaptureSessionOptions {
   bool b_after_lost_track = true;
   [[nodiscard]] std::string Check() const;
 };
+
+/// A frame the gate tracked A's corners to, as a source view for the dense stage.
+SourceView SourceViewOf(const GateWaypoint& waypoint);
+
+/// Source views before A: A's corners tracked back through `frames_before_a` (8-bit gray,
+/// undistorted, A's size, newest first; e.g. RecentFrames::BeforeA) by TrackBackFromA.
+std::vector<SourceView> ViewsBeforeA(const cv::Mat& gray_a,
+                                     std::span<const cv::Mat> frames_before_a,
+                                     const KeyframeGateOptions& options);
 
 /// One keyframe B handed to the reconstruction, and what it said.
 struct KeyframeBTry {
@@ -115,7 +125,7 @@ class CaptureSession {
   [[nodiscard]] std::vector<TrackCorrespondence> Tracks() const;
   /// The frame about halfway from A to the last frame, with the tracks' correspondences at it,
   /// for the dense stage (empty when the gate has tracked none).
-  [[nodiscard]] std::vector<IntermediateView> Between() const;
+  [[nodiscard]] std::vector<SourceView> Between() const;
   /// "n refused: reason (k); reason (m)" over the refused tries, for messages.
   [[nodiscard]] std::string RefusalSummary() const;
 

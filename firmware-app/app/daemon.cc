@@ -39,6 +39,7 @@
 #include "entry/json_text.h"
 #include "scale/odometry.h"
 #include "session/capture_session.h"
+#include "session/recent_frames.h"
 #include "spool/spool.h"
 
 namespace mm {
@@ -68,7 +69,7 @@ struct Job {
   cv::Mat undistorted_a;  // What the reconstruction sees.
   cv::Mat undistorted_b;
   std::vector<TrackCorrespondence> tracks;  // The gate's tracks from A to B.
-  std::vector<IntermediateView> between;    // A frame about halfway, with the tracks at it.
+  std::vector<SourceView> between;          // A frame about halfway, with the tracks at it.
   std::vector<KeyframeBTry> tries;          // This capture's B tries so far (the last is this B).
 };
 
@@ -152,11 +153,13 @@ class Worker {
   Worker(const Worker&) = delete;
   Worker& operator=(const Worker&) = delete;
 
-  /// Starts keyframe A's SIFT while the gate waits for B (the worker is idle then). A later
-  /// Submit for the same capture uses the result.
-  void Prepare(uint64_t capture_id, cv::Mat undistorted_a) {
+  /// Starts keyframe A's SIFT and the tracking of A's corners back through the frames before
+  /// A (undistorted gray, newest first: source views before A for the dense stage) while the
+  /// gate waits for B (the worker is idle then). A later Submit for the same capture uses the
+  /// results.
+  void Prepare(uint64_t capture_id, cv::Mat undistorted_a, std::vector<cv::Mat> frames_before_a) {
     std::lock_guard lock(mutex_);
-    prepare_ = PrepareJob{capture_id, std::move(undistorted_a)};
+    prepare_ = PrepareJob{capture_id, std::move(undistorted_a), std::move(frames_before_a)};
     cv_.notify_all();
   }
 
@@ -226,8 +229,13 @@ class Worker {
           prepare_.reset();
           lock.unlock();
           Features features;
+          std::vector<SourceView> views_before_a;
           try {
             features = ExtractKeyframeFeatures(prepare.image, config_.recon);
+            if (config_.recon.mesh_mode == MeshMode::kDense) {
+              views_before_a =
+                  ViewsBeforeA(ToGray(prepare.image), prepare.frames_before_a, config_.gate);
+            }
           } catch (const std::exception& e) {
             // Not fatal: Process extracts A's features again and reports its own failure.
             spdlog::error("capture {}: keyframe A features: {}", prepare.capture_id, e.what());
@@ -236,6 +244,7 @@ class Worker {
           }
           lock.lock();
           features_ = std::move(features);
+          views_before_a_ = std::move(views_before_a);
           features_capture_ = prepare.capture_id;
           continue;
         }
@@ -260,12 +269,14 @@ class Worker {
     try {
       Features features_a;
       bool have_features = false;
+      std::vector<SourceView> views = job.between;
       {
         std::lock_guard lock(mutex_);
         // Copied, not moved: a refused B may be followed by a later one from the same A.
         if (features_capture_ == job.capture_id) {
           features_a = features_;
           have_features = true;
+          views.insert(views.end(), views_before_a_.begin(), views_before_a_.end());
         }
       }
       const KeyframeInfo a = KeyframeInfoOf(*job.a), b = KeyframeInfoOf(*job.b);
@@ -275,9 +286,9 @@ class Worker {
         scale = odometry_->Lookup(config_, a, b);
       }
       scale.options = config_.scale;
-      PairJobResult result = RunPairJob(job.undistorted_a, job.undistorted_b, a, b, camera_,
-                                        config_.recon, have_features ? &features_a : nullptr,
-                                        job.tracks, job.between, job.tries, scale);
+      PairJobResult result =
+          RunPairJob(job.undistorted_a, job.undistorted_b, a, b, camera_, config_.recon,
+                     have_features ? &features_a : nullptr, job.tracks, views, job.tries, scale);
       if (!result.ok) {
         outcome.error = "reconstruction failed: " + result.error;
         outcome.refused = true;
@@ -317,10 +328,12 @@ class Worker {
   struct PrepareJob {
     uint64_t capture_id = 0;
     cv::Mat image;
+    std::vector<cv::Mat> frames_before_a;
   };
   std::optional<Job> job_;                  // Guarded by mutex_.
   std::optional<PrepareJob> prepare_;       // Guarded by mutex_.
   Features features_;                       // Keyframe A's, guarded by mutex_.
+  std::vector<SourceView> views_before_a_;  // Keyframe A's, guarded by mutex_.
   uint64_t features_capture_ = 0;           // Whose features_ are; guarded by mutex_.
   std::deque<JobOutcome> outcomes_;         // Guarded by mutex_.
   std::optional<std::string> fatal_error_;  // Guarded by mutex_.
@@ -408,6 +421,8 @@ class Daemon {
   void AddFd(int fd);
   Trigger* FindTrigger(int fd) const;
   static double NowSeconds();  // The session's clock (steady).
+  static double FrameTimeSeconds(const Frame& frame);  // Its capture time (CLOCK_MONOTONIC).
+  void KeepRecentFrame();  // The newest frame into recent_frames_ (gray, as captured).
 
   const DaemonConfig& config_;
   Undistorter undistorter_;
@@ -448,6 +463,9 @@ class Daemon {
   FramePtr keyframe_a_;
   cv::Mat undistorted_a_;
   uint64_t last_tracked_sequence_ = 0;
+  // Frames of the last seconds (gray, as captured), for views before A.
+  RecentFrames recent_frames_;
+  uint64_t last_recent_sequence_ = 0;
   json last_result_ = nullptr;
   uint64_t watchdog_usec_ = 0;
   std::chrono::steady_clock::time_point last_watchdog_;
@@ -718,7 +736,17 @@ void Daemon::OnTrigger(const char* origin, json* reply) {
   undistorted_a_ = undistorted;
   last_tracked_sequence_ = keyframe_a_->sequence;
   const int corners = session_.Start(ToGray(undistorted_a_), NowSeconds());
-  worker_->Prepare(captures_, undistorted_a_);
+  // The frames kept from before A, undistorted as A (the worker tracks A's corners back).
+  std::vector<cv::Mat> frames_before_a;
+  for (const cv::Mat& gray : recent_frames_.BeforeA(FrameTimeSeconds(*keyframe_a_))) {
+    try {
+      frames_before_a.push_back(undistorter_.Apply(gray));
+    } catch (const std::exception& e) {
+      spdlog::warn("capture {}: a frame before A does not fit the calibration: {}", captures_,
+                   e.what());
+    }
+  }
+  worker_->Prepare(captures_, undistorted_a_, std::move(frames_before_a));
   spdlog::info("capture {} ({}): keyframe A = frame {} ({}), {} corners to track", captures_,
                origin, keyframe_a_->sequence, keyframe_a_->source_id, corners);
   Emit({{"event", "keyframe_a"},
@@ -874,6 +902,7 @@ void Daemon::EndCapture(const std::string& error) {
 }
 
 void Daemon::OnFrame() {
+  if (state_ != State::kWalking) KeepRecentFrame();
   if (state_ == State::kWalking) {
     // The walk thread takes the newest frame when it is free (the others are skipped).
     FramePtr frame = capture_->Latest();
@@ -891,6 +920,18 @@ void Daemon::OnFrame() {
   if (!frame || frame->sequence <= last_tracked_sequence_) return;
   last_tracked_sequence_ = frame->sequence;
   gate_->Post(captures_, std::move(frame));
+}
+
+void Daemon::KeepRecentFrame() {
+  FramePtr frame = capture_->Latest();
+  if (!frame || frame->sequence <= last_recent_sequence_) return;
+  last_recent_sequence_ = frame->sequence;
+  const double time_s = FrameTimeSeconds(*frame);
+  if (recent_frames_.Keeps(time_s)) recent_frames_.Add(ToGray(frame->image), time_s);
+}
+
+double Daemon::FrameTimeSeconds(const Frame& frame) {
+  return 1e-9 * static_cast<double>(frame.capture_time_ns);
 }
 
 void Daemon::OnGateDone() {

@@ -10,8 +10,8 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                          const KeyframeInfo& b, const BouguetCamera& camera,
                          const PairOptions& options, const Features* features_a,
                          std::span<const TrackCorrespondence> tracks,
-                         std::span<const IntermediateView> between,
-                         std::span<const KeyframeBTry> tries, const PairScaleInputs& scale) {
+                         std::span<const SourceView> between, std::span<const KeyframeBTry> tries,
+                         const PairScaleInputs& scale) {
   PairJobResult out;
   const auto start = std::chrono::steady_clock::now();
   out.recon = features_a != nullptr

@@ -45,7 +45,7 @@ PairJobResult RunPairJob(const cv::Mat& image_a, const cv::Mat& image_b, const K
                          const KeyframeInfo& b, const BouguetCamera& camera,
                          const PairOptions& options, const Features* features_a = nullptr,
                          std::span<const TrackCorrespondence> tracks = {},
-                         std::span<const IntermediateView> between = {},
+                         std::span<const SourceView> between = {},
                          std::span<const KeyframeBTry> tries = {},
                          const PairScaleInputs& scale = {});
 

@@ -68,6 +68,7 @@ struct EvalArgs {
   double worker_latency_s = CaptureEvalOptions{}.worker_latency_s;
   std::string mesh_mode = MeshModeName(EvalOptions{}.pair.mesh_mode);
   bool frame_between = EvalOptions{}.intermediate_view;
+  bool frames_before_a = EvalOptions{}.views_before_a;
   std::string scale_source = "none";
   double odom_noise_m = 0.0;
   unsigned odom_seed = EvalOptions{}.odom_seed;
@@ -170,6 +171,7 @@ int RunEval(const EvalArgs& args) {
   options.pair.sift.impl = *ParseSiftImpl(args.sift_impl);  // CLI11 checked the name.
   options.pair.mesh_mode = *ParseMeshMode(args.mesh_mode);  // CLI11 checked the name.
   options.intermediate_view = args.frame_between;
+  options.views_before_a = args.frames_before_a;
   if (args.captures) return RunCaptureEval(args, camera, options.pair);
   if (args.walk) return RunWalkEval(args, camera, options.pair);
   if (const std::string problem = options.Check(); !problem.empty()) {
@@ -239,6 +241,9 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--frame-between", args->frame_between,
                   "Pairs more than one frame apart: the middle frame joins the dense sweep "
                   "(true / false)");
+  cmd->add_option("--frames-before-a", args->frames_before_a,
+                  "Frames of the list 0.25-2 s before A, as the daemon keeps them, are offered "
+                  "to the dense sweep as views behind A (true / false)");
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
   cmd->add_flag("--captures", args->captures,
                 "Play the sequence through the daemon's gate and worker and press capture");
