@@ -1,6 +1,7 @@
 #include "recon/dense.h"
 
 #include "base/stats.h"
+#include "recon/plane_warp.h"
 #include "recon/sgm.h"
 #include "recon/zncc.h"
 
@@ -10,7 +11,6 @@
 #include <cstdint>
 #include <limits>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -69,15 +69,15 @@ double SweepSpanPx(const Eigen::Matrix3d& Ks, const Eigen::Matrix3d& Ks_inv,
 // warped window without texture gets ZNCC 0. `warped`: scratch of A's size (CV_32F).
 void PlaneCost(const ZnccWindowsA& windows_a, const cv::Mat& view, const Eigen::Matrix3d& H,
                float min_var, cv::Mat* warped, cv::Mat* cost) {
-  cv::Mat Hcv;
-  cv::eigen2cv(H, Hcv);
-  cv::warpPerspective(view, *warped, Hcv, warped->size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_REPLICATE);
   const size_t pixels = warped->total();
-  const bool ok =
+  CV_Assert(view.isContinuous() && view.size() == warped->size());
+  const bool warped_ok =
+      WarpByHomography(std::span<const float>(view.ptr<float>(), pixels), view.cols, view.rows, H,
+                       std::span<float>(warped->ptr<float>(), pixels));
+  const bool cost_ok =
       PlaneZnccCost(windows_a, std::span<const float>(warped->ptr<float>(), pixels), min_var,
                     kCostScale, std::span<uint16_t>(cost->ptr<uint16_t>(), pixels));
-  CV_Assert(ok);  // The sizes are the sweep's own.
+  CV_Assert(warped_ok && cost_ok);  // The sizes are the sweep's own.
 }
 
 // Adds one view's plane costs to the plane's slice of the volume (plane-major) at A's textured

@@ -1,16 +1,20 @@
-// Time of one plane's matching cost in the dense sweep (recon/zncc.h) at the sweep's 320x240
-// (640x480 shrunk by 2), one core: the fused Highway pass (the target chosen at run time), its
-// scalar reference, and the OpenCV path it replaced (three normalized box filters and the
-// ZNCC in full-image arithmetic, OpenCV's own SIMD) as the peer. The view is A shifted by a
-// few pixels, as the warped B at a plane near the true depth.
+// Time of one plane's warp and matching cost in the dense sweep (recon/plane_warp.h,
+// recon/zncc.h) at the sweep's 320x240 (640x480 shrunk by 2), one core: each Highway pass (the
+// target chosen at run time), its scalar reference, and the OpenCV path it replaced as the
+// peer (for the cost: three normalized box filters and the ZNCC in full-image arithmetic; for
+// the warp: warpPerspective; OpenCV's own SIMD in both). The view is A shifted by a few
+// pixels, as the warped B at a plane near the true depth.
 #include <benchmark/benchmark.h>
 
+#include <Eigen/Core>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
+#include "recon/plane_warp.h"
 #include "recon/zncc.h"
 
 namespace {
@@ -99,11 +103,43 @@ void BM_PlaneZnccCostOpenCvBoxFilters(benchmark::State& state) {
 }
 BENCHMARK(BM_PlaneZnccCostOpenCvBoxFilters);
 
-// The warp the sweep runs before the cost at every plane, for scale.
+// The warp the sweep runs before the cost at every plane (recon/plane_warp.h): the Highway
+// pass, its scalar reference, and OpenCV's warpPerspective (its own SIMD) as the peer.
+const Eigen::Matrix3d& WarpHomography() {
+  static const Eigen::Matrix3d H =
+      (Eigen::Matrix3d() << 1.01, 0.002, 2.5, -0.001, 1.0, 0.7, 1e-5, 2e-5, 1.0).finished();
+  return H;
+}
+
+template <bool (*Warp)(std::span<const float>, int, int, const Eigen::Matrix3d&, std::span<float>)>
+void PlaneWarpLoop(benchmark::State& state) {
+  const Images& im = TheImages();
+  std::vector<float> warped(im.view.total());
+  const std::span<const float> view(im.view.ptr<float>(), im.view.total());
+  for (auto _ : state) {
+    Warp(view, im.view.cols, im.view.rows, WarpHomography(), warped);
+    benchmark::DoNotOptimize(warped.data());
+  }
+}
+
+// The Highway pass (its target_used argument left at its default).
+bool HighwayWarp(std::span<const float> view, int width, int height, const Eigen::Matrix3d& H,
+                 std::span<float> out) {
+  return mm::WarpByHomography(view, width, height, H, out);
+}
+
+void BM_PlaneWarpHighway(benchmark::State& state) { PlaneWarpLoop<HighwayWarp>(state); }
+BENCHMARK(BM_PlaneWarpHighway);
+
+void BM_PlaneWarpScalar(benchmark::State& state) {
+  PlaneWarpLoop<mm::WarpByHomographyScalar>(state);
+}
+BENCHMARK(BM_PlaneWarpScalar);
+
 void BM_PlaneWarpOpenCv(benchmark::State& state) {
   const Images& im = TheImages();
-  cv::Mat warped(im.view.size(), CV_32F);
-  const cv::Matx33d H(1.01, 0.002, 2.5, -0.001, 1.0, 0.7, 1e-5, 2e-5, 1.0);
+  cv::Mat warped(im.view.size(), CV_32F), H;
+  cv::eigen2cv(WarpHomography(), H);
   for (auto _ : state) {
     cv::warpPerspective(im.view, warped, H, im.view.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                         cv::BORDER_REPLICATE);
