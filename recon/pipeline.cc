@@ -230,6 +230,7 @@ PairReconstruction ReconstructPair(const Features& features_a, const cv::Mat& im
   auto start = Clock::now();
   const cv::Mat gray_b = ToGray(image_b);
   const Features features_b = ExtractSift(gray_b, options.sift);
+  if (options.release_sift_workspace_after_b) ReleaseSiftWorkspace();
   out.times.features_b_s = SecondsSince(start);
   out.features_a = static_cast<int>(features_a.keypoints.size());
   out.features_b = static_cast<int>(features_b.keypoints.size());

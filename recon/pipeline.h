@@ -73,6 +73,11 @@ struct PairOptions {
   int max_views_before_a = 1;
   /// A source view is used only when its distance from A is within this share of B's.
   std::array<double, 2> intermediate_baseline_share = {0.2, 0.8};
+  /// Free the calling thread's SIFT pyramid (kept between calls, about 100 MB at 640x480)
+  /// once B's features are out, before matching, the dense stage and the mesh: the
+  /// appliance's peak memory falls by that much, and the next keyframe A's SIFT (computed
+  /// while the gate waits for B) allocates it again.
+  bool release_sift_workspace_after_b = false;
   [[nodiscard]] std::string Check() const;
 };
 
