@@ -145,6 +145,8 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
     }
     const cv::Mat undistorted = undistorter.Apply(raw);
     const cv::Mat gray = ToGray(undistorted);
+    // Kept as the daemon keeps them (A itself is never handed out as a frame before A).
+    recent_frames.Add(gray, t);
     // 2. The press.
     if (!capture_open && (press_now || t >= next_press)) {
       press_now = false;
@@ -163,10 +165,8 @@ CaptureEvalResult EvaluateCaptures(const std::filesystem::path& dataset,
       }
       worker_free_at = t + latency(SecondsSince(start));
       capture_open = true;
-      recent_frames.Add(gray, t);
       continue;
     }
-    recent_frames.Add(gray, t);
     if (!capture_open) continue;
     // 3. The gate on this frame.
     const bool can_submit = !pending && t >= worker_free_at;

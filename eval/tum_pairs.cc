@@ -216,11 +216,13 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       // The frames the daemon would hold before A (it tracks A's corners back to them; here,
       // as for the frames between, SIFT matches with A stand in for the tracks).
       RecentFrames recent(options.recent_frames);
-      const double horizon_s = options.recent_frames.seconds_before_a.empty()
-                                   ? 0.0
-                                   : 1.5 * options.recent_frames.seconds_before_a.back();
+      const double horizon_s = options.recent_frames.horizon_s();
       for (size_t j = 0; j < i; ++j) {
-        if (frames[j].timestamp_s < frames[i].timestamp_s - horizon_s) continue;
+        // Only the frames it would keep are read.
+        if (frames[j].timestamp_s < frames[i].timestamp_s - horizon_s ||
+            !recent.Keeps(frames[j].timestamp_s)) {
+          continue;
+        }
         const cv::Mat image_j = load(frames[j].path);
         if (!image_j.empty()) recent.Add(image_j, frames[j].timestamp_s);
       }

@@ -21,9 +21,7 @@ RecentFrames::RecentFrames(RecentFramesOptions options) : options_(std::move(opt
 void RecentFrames::Add(const cv::Mat& frame, double time_s) {
   if (!Keeps(time_s)) return;
   frames_.push_back({time_s, frame});
-  // The oldest frame handed out lies at most 1.5 times the longest offset back.
-  const double horizon_s =
-      options_.seconds_before_a.empty() ? 0.0 : 1.5 * options_.seconds_before_a.back();
+  const double horizon_s = options_.horizon_s();
   while (!frames_.empty() && frames_.front().time_s < time_s - horizon_s) frames_.pop_front();
   // From the newest back: a frame closer to the next newer kept one than its age allows goes.
   double newer_s = time_s;

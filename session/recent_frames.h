@@ -26,6 +26,11 @@ struct RecentFramesOptions {
   /// older one (the nearest kept frame to an offset o is then within about o * age_spacing / 2).
   double spacing_s = 1.0 / 16;
   double age_spacing = 0.25;
+  /// How far back a kept frame may lie: 1.5 times the longest offset (the nearest to it
+  /// within half of it); older frames are dropped.
+  [[nodiscard]] double horizon_s() const {
+    return seconds_before_a.empty() ? 0.0 : 1.5 * seconds_before_a.back();
+  }
   [[nodiscard]] std::string Check() const;
 };
 

@@ -913,7 +913,6 @@ void Daemon::EndCapture(const std::string& error) {
 }
 
 void Daemon::OnFrame() {
-  if (state_ != State::kWalking) KeepRecentFrame();
   if (state_ == State::kWalking) {
     // The walk thread takes the newest frame when it is free (the others are skipped).
     FramePtr frame = capture_->Latest();
@@ -922,6 +921,7 @@ void Daemon::OnFrame() {
     }
     return;
   }
+  KeepRecentFrame();
   // Frames feed the session while a capture is open, also while a B is being reconstructed
   // (the tracks stay alive for a later B if that one is refused). The gate thread tracks A's
   // corners into the newest frame when it is free (frames that arrive meanwhile are skipped;
