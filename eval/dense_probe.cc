@@ -4,8 +4,13 @@
 // image, GT = the median of the 2x2 full-resolution block), the mesh's figures
 // (EvaluatePairMesh), the far-off pixels (> 10 %) by class, and PNGs in OUT_DIR: A, the dense
 // and the GT inverse depth (one colour scale), the error map and the confidence.
-// MM_HOLE=<fraction> in the environment overrides DenseOptions::max_hole_fraction; MM_BETWEEN=1
-// adds the keyframe nearest halfway between as a further view (as the pipeline does).
+// The environment overrides options (DenseOptions): MM_HOLE max_hole_fraction, MM_CAP
+// max_view_disagreement, MM_SNAP edge_snap_min_step, MM_WIN window_radius, MM_BAND
+// occlusion_band_px, MM_P1 / MM_P2 penalty_small / penalty_large; (DenseMeshOptions) MM_MINCELL
+// min_cell_px. MM_BETWEEN=1 adds the keyframe nearest halfway between as a further view (as the
+// pipeline does); MM_GTPOSE=1 sweeps on TUM's ground-truth relative pose instead of the
+// estimate (no frame between). It also prints the clean-up's counts and writes where the mesh loses
+// pixels the depth map has (lost.png: green where the map was within 10 %, red where it was off).
 // Classes, first that applies: out of the sweep's range; B does not see the GT point (outside
 // B's image); B sees something nearer there (occluded: a z-buffer of A's GT depth in B); next
 // to a GT depth edge (within the window); low texture (A's window std < 4 grey levels); other.
@@ -27,6 +32,7 @@
 #include "eval/mesh_checks.h"
 #include "recon/dense.h"
 #include "recon/pipeline.h"
+#include "render/renderer.h"
 
 namespace {
 
@@ -77,6 +83,12 @@ int main(int argc, char** argv) {
     PairOptions po;
     if (const char* e = std::getenv("MM_HOLE")) po.dense.max_hole_fraction = std::atof(e);
     if (const char* e = std::getenv("MM_CAP")) po.dense.max_view_disagreement = std::atof(e);
+    if (const char* e = std::getenv("MM_SNAP")) po.dense.edge_snap_min_step = std::atoi(e);
+    if (const char* e = std::getenv("MM_MINCELL")) po.dense_mesh.min_cell_px = std::atoi(e);
+    if (const char* e = std::getenv("MM_WIN")) po.dense.window_radius = std::atoi(e);
+    if (const char* e = std::getenv("MM_BAND")) po.dense.occlusion_band_px = std::atoi(e);
+    if (const char* e = std::getenv("MM_P1")) po.dense.penalty_small = std::atof(e);
+    if (const char* e = std::getenv("MM_P2")) po.dense.penalty_large = std::atof(e);
     PairReconstruction r = ReconstructPair(a, b, camera, po);
     if (!r.success) {
       std::printf("(0,%d) failed: %s\n", ib, r.failure_reason.c_str());
@@ -101,6 +113,20 @@ int main(int argc, char** argv) {
       between = std::move(chosen.views);
     }
     double t0 = CpuNow();
+    // MM_GTPOSE=1: the sweep runs on the ground-truth relative pose (translation scaled to the
+    // estimate's length), to separate the pose's share of the depth error from the matching's.
+    if (const char* e = std::getenv("MM_GTPOSE"); e && std::atoi(e) > 0) {
+      const Trajectory trajectory = Trajectory::Read(data / "groundtruth.txt");
+      const auto wa = trajectory.WorldFromCamAt(frames[0].timestamp_s);
+      const auto wb = trajectory.WorldFromCamAt(frames[static_cast<size_t>(ib)].timestamp_s);
+      if (wa && wb) {
+        const Eigen::Isometry3d b_from_a = CamBFromCamA(*wa, *wb);
+        r.geometry.rotation = b_from_a.rotation();
+        r.geometry.translation =
+            b_from_a.translation().normalized() * r.geometry.translation.norm();
+        between.clear();  // Their poses are the estimate's.
+      }
+    }
     DenseDepth d{};
     constexpr int kRuns = 3;
     for (int run = 0; run < kRuns; ++run) {
@@ -287,6 +313,38 @@ int main(int argc, char** argv) {
     cv::Mat b8;
     cv::resize(gb, b8, cv::Size(w, h), 0, 0, cv::INTER_AREA);
     cv::imwrite(p + "b.png", b8);
+    std::printf("  clean-up: cut to outlines %d, filled in holes %d, occlusion bands %d\n",
+                d.cut_to_outlines, d.filled_in_holes, d.dropped_in_occlusion_bands);
+    // Where the mesh loses the map: full-resolution pixels with GT whose shrunk pixel has a
+    // depth but the rendered mesh none.
+    Renderer renderer;
+    RenderCamera cam;
+    cam.K = camera.K();
+    cam.width = gt.cols;
+    cam.height = gt.rows;
+    cam.near_plane = 1e-3;
+    cam.far_plane = 1e3;
+    const RenderResult rendered = renderer.Render(r.mesh, cv::Mat(), cam);
+    cv::Mat lost(gt.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+    int lost_right = 0, lost_off = 0;
+    for (int y = 0; y < gt.rows; ++y) {
+      for (int x = 0; x < gt.cols; ++x) {
+        const uint8_t grey = a.at<cv::Vec3b>(y, x)[1];
+        lost.at<cv::Vec3b>(y, x) = cv::Vec3b(grey / 3, grey / 3, grey / 3);
+        const float e_rho =
+            d.inverse_depth.at<float>(std::min(y / f, h - 1), std::min(x / f, w - 1));
+        if (!(gt.at<float>(y, x) > 0) || !(e_rho > 0) || !rendered.success ||
+            rendered.depth.at<float>(y, x) > 0) {
+          continue;
+        }
+        const bool far_off = std::abs(scale / gt.at<float>(y, x) / e_rho - 1.0) > 0.1;
+        ++(far_off ? lost_off : lost_right);
+        lost.at<cv::Vec3b>(y, x) = far_off ? cv::Vec3b(0, 0, 255) : cv::Vec3b(0, 255, 0);
+      }
+    }
+    std::printf("  the mesh loses %d px the map had within 10 %%, %d it had off\n", lost_right,
+                lost_off);
+    cv::imwrite(p + "lost.png", lost);
   }
   return 0;
 }

@@ -157,9 +157,9 @@ TEST_F(MeshQuality, DenseMeshBeatsSparseOnEveryFigure) {
     EXPECT_LT(fd.depth.median_rel_err, fs.depth.median_rel_err);
     EXPECT_LT(fd.depth.p90_rel_err, fs.depth.p90_rel_err);
     EXPECT_LT(fd.depth.flying, fs.depth.flying);
-    // Measured: (0,2) coverage 0.844, median 1.83 %, p90 7.2 %, flying 5.8 %; (0,3) 0.778,
-    // 1.99 %, 9.0 %, 8.7 %.
-    EXPECT_GE(fd.depth.coverage, ib == 2 ? 0.82 : 0.75);
+    // Measured: (0,2) coverage 0.821, median 1.76 %, p90 6.7 %, flying 4.8 %; (0,3) 0.795,
+    // 1.97 %, 8.7 %, 8.1 %.
+    EXPECT_GE(fd.depth.coverage, ib == 2 ? 0.80 : 0.77);
     EXPECT_LE(fd.depth.median_rel_err, 0.022);
     EXPECT_LE(fd.depth.p90_rel_err, 0.095);
     EXPECT_LE(fd.depth.flying, 0.095);
@@ -202,8 +202,8 @@ TEST_F(MeshQuality, AFrameBetweenRaisesCoverageAndLowersTheFarOffShare) {
         ib, f2.depth.coverage, f2.depth.median_rel_err, f2.depth.p90_rel_err, f2.depth.flying,
         f2.ncc_b, f3.depth.coverage, f3.depth.median_rel_err, f3.depth.p90_rel_err, f3.depth.flying,
         f3.ncc_b, three.times.dense_s);
-    // Measured: (0,2) coverage 0.844 -> 0.869, median 1.83 -> 1.80 %, p90 7.16 -> 7.13 %,
-    // flying 5.78 -> 5.87 %; (0,3) 0.778 -> 0.870, 1.99 -> 1.72 %, 9.0 -> 7.4 %, 8.7 -> 6.1 %.
+    // Measured: (0,2) coverage 0.821 -> 0.862, median 1.76 -> 1.76 %, p90 6.66 -> 6.71 %,
+    // flying 4.77 -> 4.84 %; (0,3) 0.795 -> 0.851, 1.97 -> 1.68 %, 8.7 -> 6.8 %, 8.1 -> 4.7 %.
     // On (0,2) B already sees most of A, so the frame between adds coverage at the same share
     // of far-off pixels; on (0,3) it also settles what B does not see.
     EXPECT_GE(f3.depth.coverage, 0.85);
@@ -215,8 +215,8 @@ TEST_F(MeshQuality, AFrameBetweenRaisesCoverageAndLowersTheFarOffShare) {
       EXPECT_LT(f3.depth.p90_rel_err, f2.depth.p90_rel_err - 0.01);
     }
     EXPECT_LE(f3.depth.median_rel_err, 0.02);
-    EXPECT_LE(f3.depth.p90_rel_err, 0.08);
-    EXPECT_LE(f3.depth.flying, 0.068);
+    EXPECT_LE(f3.depth.p90_rel_err, 0.075);
+    EXPECT_LE(f3.depth.flying, 0.05);
     EXPECT_GE(f3.ncc_b, 0.90);
   }
 }

@@ -1,6 +1,7 @@
 #include "recon/dense.h"
 
 #include "base/stats.h"
+#include "recon/depth_filters.h"
 #include "recon/plane_warp.h"
 #include "recon/sgm.h"
 #include "recon/zncc.h"
@@ -128,128 +129,6 @@ void AccumulatePlaneCost(const cv::Mat& cost, const Eigen::Matrix3d& H, const cv
   }
 }
 
-// Median of the valid 3x3 neighbours of each valid pixel (removes single-pixel spikes of the
-// winner-take-all without moving edges).
-cv::Mat MedianOfValid(const cv::Mat& rho) {
-  cv::Mat out = rho.clone();
-  float values[9];
-  for (int y = 0; y < rho.rows; ++y) {
-    for (int x = 0; x < rho.cols; ++x) {
-      if (!(rho.at<float>(y, x) > 0)) continue;
-      int n = 0;
-      for (int yy = std::max(0, y - 1); yy <= std::min(rho.rows - 1, y + 1); ++yy) {
-        for (int xx = std::max(0, x - 1); xx <= std::min(rho.cols - 1, x + 1); ++xx) {
-          const float v = rho.at<float>(yy, xx);
-          if (v > 0) values[n++] = v;
-        }
-      }
-      std::nth_element(values, values + n / 2, values + n);
-      out.at<float>(y, x) = values[n / 2];
-    }
-  }
-  return out;
-}
-
-// Fills the holes (8-connected pixels without depth) of at most `max_pixels` that do not touch
-// the image border: each pass gives every hole pixel with a valid 8-neighbour the mean of
-// those neighbours, from the border of the hole inward. Filled pixels get `confidence`.
-void FillSmallHoles(int max_pixels, float filled_confidence, cv::Mat* rho, cv::Mat* confidence) {
-  if (max_pixels <= 0) return;
-  const cv::Mat holes = *rho <= 0;
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(holes, labels, stats, centroids, 8, CV_32S);
-  std::vector<uint8_t> fill(static_cast<size_t>(n), 0);
-  for (int i = 1; i < n; ++i) {
-    const int x = stats.at<int>(i, cv::CC_STAT_LEFT), y = stats.at<int>(i, cv::CC_STAT_TOP);
-    const int w = stats.at<int>(i, cv::CC_STAT_WIDTH), h = stats.at<int>(i, cv::CC_STAT_HEIGHT);
-    const bool inside = x > 0 && y > 0 && x + w < rho->cols && y + h < rho->rows;
-    fill[static_cast<size_t>(i)] = inside && stats.at<int>(i, cv::CC_STAT_AREA) <= max_pixels;
-  }
-  std::vector<cv::Point> pending;
-  for (int y = 0; y < rho->rows; ++y) {
-    for (int x = 0; x < rho->cols; ++x) {
-      if (fill[static_cast<size_t>(labels.at<int>(y, x))] && labels.at<int>(y, x) > 0) {
-        pending.emplace_back(x, y);
-      }
-    }
-  }
-  std::vector<std::pair<cv::Point, float>> updates;
-  while (!pending.empty()) {
-    updates.clear();
-    std::vector<cv::Point> still;
-    for (const cv::Point& p : pending) {
-      float sum = 0;
-      int count = 0;
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int x = p.x + dx, y = p.y + dy;
-          if (x < 0 || y < 0 || x >= rho->cols || y >= rho->rows) continue;
-          const float v = rho->at<float>(y, x);
-          if (v > 0) {
-            sum += v;
-            ++count;
-          }
-        }
-      }
-      if (count > 0) {
-        updates.emplace_back(p, sum / static_cast<float>(count));
-      } else {
-        still.push_back(p);
-      }
-    }
-    if (updates.empty()) break;
-    for (const auto& [p, v] : updates) {
-      rho->at<float>(p) = v;
-      confidence->at<float>(p) = filled_confidence;
-    }
-    pending.swap(still);
-  }
-}
-
-// True when inverse depths `near` > `far` lie on two surfaces rather than one (within 5 % of
-// depth plus two plane steps, so that the sweep's quantization does not read as an edge).
-bool IsDepthEdge(float near, float far, double rho_step) {
-  return far < near - (0.05 * near + 2 * rho_step);
-}
-
-// Foreground fattening (Scharstein & Szeliski 2002, sec. 5): next to the far side of a
-// depth edge, A's background is hidden in B behind the foreground and A's window there is
-// dominated by the foreground's texture, so both the cost and SGM give it the foreground's
-// depth. The band lies on the side of the foreground towards which nearer points move in
-// B: along the epipolar direction d(x) = d pi(R x + rho t) / d rho in A's image, i.e. away
-// from the epipole. A pixel is dropped when a pixel at most `band_px` along +d has a depth on
-// another, farther surface (checked on the depth before any drop, so bands do not grow).
-void DropOcclusionBands(const Eigen::Matrix3d& Ks_inv, const Eigen::Vector3d& center_b_in_a,
-                        int band_px, double rho_step, cv::Mat* rho, cv::Mat* confidence) {
-  if (band_px <= 0) return;
-  const cv::Mat before = rho->clone();
-  const Eigen::Vector3d& c = center_b_in_a;
-  for (int y = 0; y < before.rows; ++y) {
-    for (int x = 0; x < before.cols; ++x) {
-      const float near = before.at<float>(y, x);
-      if (!(near > 0)) continue;
-      // The ray's point at inverse depth rho is x_n / rho; seen from B's centre c its image
-      // moves, as rho grows, along -(c_xy - x_n,xy c_z) (the epipole is c's image).
-      const Eigen::Vector3d xn = Ks_inv * Eigen::Vector3d(x, y, 1);
-      const Eigen::Vector2d d(-(c.x() - xn.x() * c.z()) / Ks_inv(0, 0),
-                              -(c.y() - xn.y() * c.z()) / Ks_inv(1, 1));
-      const double length = d.norm();
-      if (!(length > 1e-12)) continue;
-      for (int k = 1; k <= band_px; ++k) {
-        const int xs = static_cast<int>(std::lround(x + k * d.x() / length));
-        const int ys = static_cast<int>(std::lround(y + k * d.y() / length));
-        if (xs < 0 || ys < 0 || xs >= before.cols || ys >= before.rows) break;
-        const float far = before.at<float>(ys, xs);
-        if (far > 0 && IsDepthEdge(near, far, rho_step)) {
-          rho->at<float>(y, x) = 0;
-          confidence->at<float>(y, x) = 0;
-          break;
-        }
-      }
-    }
-  }
-}
-
 }  // namespace
 
 std::string DenseOptions::Check() const {
@@ -280,6 +159,9 @@ std::string DenseOptions::Check() const {
   }
   if (occlusion_band_px < 0 || occlusion_band_px > 64) {
     return "dense.occlusion_band_px must be in [0, 64]";
+  }
+  if (edge_snap_min_step < 0 || edge_snap_min_step > 255) {
+    return "dense.edge_snap_min_step must be in [0, 255]";
   }
   if (!(max_hole_fraction >= 0 && max_hole_fraction < 1)) {
     return "dense.max_hole_fraction must be in [0, 1)";
@@ -477,10 +359,14 @@ DenseDepth ComputeDenseDepth(const cv::Mat& gray_a, const cv::Mat& gray_b, const
     }
   }
   out.inverse_depth = MedianOfValid(rho);
-  FillSmallHoles(static_cast<int>(options.max_hole_fraction * static_cast<double>(pixels)),
-                 static_cast<float>(options.min_confidence), &out.inverse_depth, &confidence);
-  DropOcclusionBands(Ks_inv, -R.transpose() * t, options.occlusion_band_px, rho_step,
-                     &out.inverse_depth, &confidence);
+  out.cut_to_outlines = CutDepthEdgesToOutlines(a8, r, options.edge_snap_min_step, rho_step,
+                                                &out.inverse_depth, &confidence);
+  out.filled_in_holes = FillPlanarHoles(
+      static_cast<int>(options.max_hole_fraction * static_cast<double>(pixels)),
+      static_cast<float>(options.min_confidence), rho_step, &out.inverse_depth, &confidence);
+  out.dropped_in_occlusion_bands =
+      DropOcclusionBands(Ks_inv, -R.transpose() * t, options.occlusion_band_px, rho_step,
+                         &out.inverse_depth, &confidence);
   out.confidence = confidence;
   const int valid = cv::countNonZero(out.inverse_depth > 0);
   out.valid_fraction = static_cast<double>(valid) / static_cast<double>(pixels);

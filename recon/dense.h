@@ -10,9 +10,11 @@
 // agree they average, where one does not see the point (occluded in it) the better one counts.
 // A pixel keeps its depth when the aggregated cost has a clear minimum,
 // its window is textured and matches B at that depth, or it is textureless and its depth came
-// from textured neighbours; small isolated regions are removed (speckle filter), small holes
-// inside a surface are filled from their border, and the band next to a depth edge where B
-// sees the foreground instead of A's background (foreground fattening) is dropped.
+// from textured neighbours; small isolated regions are removed (speckle filter), depth edges
+// are cut back to A's grey-level outlines where the window carried the foreground's depth past
+// them, holes whose border lies on one plane are filled with it, and the band next to a depth
+// edge where B sees the foreground instead of A's background (foreground fattening) is
+// dropped.
 // The method and its measured alternatives: docs/recon_tuning.md.
 //
 // Thread-safety: pure functions; reentrant (scratch volumes are kept per thread).
@@ -57,9 +59,15 @@ struct DenseOptions {
   double max_speckle_fraction = 0.005;
   int speckle_planes = 2;
   /// Holes (connected pixels without depth) up to this share of the shrunk image that are
-  /// surrounded by depth are filled from their border, inward (isolated rejects inside a
-  /// surface); larger ones stay holes.
-  double max_hole_fraction = 0.002;
+  /// surrounded by depth on one plane (the border's inverse depth affine in the pixel within
+  /// the depth-edge tolerance) are filled with that plane: rejects inside a wall, the floor or
+  /// a desk. Holes between surfaces and larger ones stay holes.
+  double max_hole_fraction = 0.005;
+  /// Depth edges snap to A's outlines: a near pixel up to the window radius from a farther
+  /// surface is dropped when the largest grey-level step on the line from that surface into
+  /// the near one lies behind it (the window carried the foreground's depth past the
+  /// object's outline), if that step is at least this many grey levels. 0 = off.
+  int edge_snap_min_step = 8;
   /// With further views (frames between A and B) a pixel's cost at a plane is the better
   /// view's plus half the difference up to this cap (1 - ZNCC units): views that agree are
   /// averaged (less noise), and a view that does not see the point (occluded in it, or A's
@@ -88,6 +96,10 @@ struct DenseDepth {
   int planes = 0;
   double inverse_depth_step = 0;  ///< Between neighbouring planes: the depth's resolution.
   double valid_fraction = 0;      ///< Share of the shrunk image with a depth.
+  /// The clean-up's work, in pixels of the shrunk image (recon/depth_filters.h).
+  int cut_to_outlines = 0;
+  int filled_in_holes = 0;
+  int dropped_in_occlusion_bands = 0;
 };
 
 /// A further view of A's scene (a frame between A and B): its grey image (size of A's) and
