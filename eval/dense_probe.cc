@@ -84,6 +84,7 @@ int main(int argc, char** argv) {
     if (const char* e = std::getenv("MM_HOLE")) po.dense.max_hole_fraction = std::atof(e);
     if (const char* e = std::getenv("MM_CAP")) po.dense.max_view_disagreement = std::atof(e);
     if (const char* e = std::getenv("MM_SNAP")) po.dense.edge_snap_min_step = std::atoi(e);
+    if (const char* e = std::getenv("MM_PLANEPX")) po.dense.plane_step_px = std::atof(e);
     if (const char* e = std::getenv("MM_MINCELL")) po.dense_mesh.min_cell_px = std::atoi(e);
     if (const char* e = std::getenv("MM_WIN")) po.dense.window_radius = std::atoi(e);
     if (const char* e = std::getenv("MM_BAND")) po.dense.occlusion_band_px = std::atoi(e);

@@ -32,9 +32,9 @@ struct DenseOptions {
   /// ZNCC window radius in pixels of the shrunk images (window = 2 r + 1).
   int window_radius = 3;
   /// Plane spacing: neighbouring planes move a pixel of A by about this many pixels in B (in
-  /// the shrunk images): half a pixel samples the cost curve finely enough that the parabola
-  /// is not locked to whole pixels on short baselines (docs/recon_tuning.md).
-  double plane_step_px = 0.5;
+  /// the shrunk images), so that the parabola is not locked to the planes on short baselines
+  /// (docs/recon_tuning.md). Longer baselines reach `max_planes` first and are spaced wider.
+  double plane_step_px = 0.35;
   int min_planes = 16;
   int max_planes = 64;  ///< Beyond it the planes are spaced wider (sub-plane parabola).
   /// The sweep's inverse-depth range: the sparse points' 2nd and 98th percentiles of inverse
