@@ -48,12 +48,22 @@ int CutDepthEdgesToOutlines(const cv::Mat& gray_a, int band_px, int min_step, do
       if (!(near > 0)) continue;
       bool outside = false;
       for (const auto& [dx, dy] : kDirections) {
-        int k = 0;  // Distance to the farther surface along d, 0 = none within the band.
+        // The nearest farther surface along d within the band: a depth edge against p's own
+        // surface extended along d with its slope at p (from the neighbour behind p, when that
+        // lies on the same surface), so that a slanted surface, steep in the image, does not
+        // read as one.
+        const cv::Point behind(x - dx, y - dy);
+        const float back = image.contains(behind) ? before.at<float>(behind) : 0.0f;
+        const float slope =
+            back > 0 && !IsDepthEdge(back, near, rho_step) && !IsDepthEdge(near, back, rho_step)
+                ? near - back
+                : 0.0f;
+        int k = 0;
         for (int i = 1; i <= band_px; ++i) {
           const cv::Point s(x + i * dx, y + i * dy);
           if (!image.contains(s)) break;
           const float far = before.at<float>(s);
-          if (far > 0 && IsDepthEdge(near, far, rho_step)) {
+          if (far > 0 && IsDepthEdge(near + static_cast<float>(i) * slope, far, rho_step)) {
             k = i;
             break;
           }

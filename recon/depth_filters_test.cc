@@ -62,6 +62,16 @@ TEST(DepthFilters, KeepsAnEdgeOnItsOutlineOrWithoutOne) {
   EXPECT_EQ(CutDepthEdgesToOutlines(off.gray, 3, 0, kStep, &off.rho, &off.confidence), 0);
 }
 
+TEST(DepthFilters, ASteepSlantIsNotAnEdge) {
+  // A floor seen at a grazing angle: inverse depth falls by 0.01 per pixel, within the
+  // depth-edge tolerance between neighbours but not over the band; a grey-level step on it.
+  cv::Mat gray(40, 60, CV_8UC1, cv::Scalar(60)), rho(40, 60, CV_32FC1);
+  gray.colRange(30, 60).setTo(200);
+  for (int x = 0; x < rho.cols; ++x) rho.col(x).setTo(0.7f - 0.01f * static_cast<float>(x));
+  cv::Mat confidence(rho.size(), CV_32FC1, cv::Scalar(0.5));
+  EXPECT_EQ(CutDepthEdgesToOutlines(gray, 3, 8, kStep, &rho, &confidence), 0);
+}
+
 // rho = 0.2 + 0.001 x + 0.0005 y: a plane slanted against the image.
 cv::Mat SlantedPlane() {
   cv::Mat rho(60, 80, CV_32FC1);

@@ -76,10 +76,11 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
     std::cout << "[ figures  ] mesh " << k << ": dense views " << report.meshing.dense_views_between
               << " between + " << report.meshing.dense_views_before_a << " before A, dense "
               << report.meshing.dense_valid_fraction << " of A\n";
-    // Measured: 0.86 of A with a dense depth without it (the first capture), 0.98-1.00 with.
+    // Measured: 0.85 of A with a dense depth without it (the first capture), 0.96-0.99 with
+    // (the depth edges cut back to A's outlines take 0-2 points; the replay's timing moves it).
     if (k > 0) {
       EXPECT_EQ(report.meshing.dense_views_before_a, 1) << report.meshing.dense_views_left_out;
-      EXPECT_GE(report.meshing.dense_valid_fraction, 0.95);
+      EXPECT_GE(report.meshing.dense_valid_fraction, 0.93);
     }
     const auto world_from_a = gt.WorldFromCamAt(a.source_time_s, 0.0);
     const auto world_from_b = gt.WorldFromCamAt(b.source_time_s, 0.0);
