@@ -24,7 +24,8 @@ cv::Mat MedianOfValid(const cv::Mat& rho);
 /// foreground's, so the foreground's depth reaches up to the window radius past the outline
 /// onto the background. The outline is where A's grey level (`gray_a`, 8-bit, the map's size)
 /// steps. For a pixel p with a pixel on a farther surface at s_0 = p + k d (k <= `band_px`, d
-/// one of the eight directions), the line s_j = p + (k - j) d runs from that surface through p
+/// one of the eight directions; farther than p's surface extended with its slope at p, so that
+/// a surface seen at a grazing angle is not an edge), the line s_j = p + (k - j) d runs from that surface through p
 /// (s_k) `band_px` further into the near one; when the largest step |A(s_j) - A(s_j+1)| on it
 /// is at least `min_step` and lies at or behind p (j >= k), p lies outside the outline and is
 /// dropped. Checked on the map before any drop. Returns the pixels dropped.
