@@ -164,6 +164,11 @@ TEST(EntryReport, BriefReportHasOneKeyValueLineEach) {
   EXPECT_NE(brief.find("mesh_vertices 250\n"), std::string::npos) << brief;
   EXPECT_NE(brief.find("gate_track_inliers 140\n"), std::string::npos) << brief;
   EXPECT_NE(brief.find("b_tries 2\n"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("mesh_mode sparse\n"), std::string::npos) << brief;
+  EntryReport dense = Filled();
+  dense.meshing.mode = "dense";
+  dense.meshing.dense_valid_fraction = 0.81;
+  EXPECT_NE(BriefReport(dense).find("mesh_mode dense 0.810000\n"), std::string::npos);
   EXPECT_NE(brief.find("scale none (up to scale)"), std::string::npos) << brief;
   EXPECT_EQ(brief.find("failure "), std::string::npos) << brief;
 }

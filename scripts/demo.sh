@@ -40,4 +40,9 @@ echo
 echo "spool entry: $entry"
 echo "  mesh:   $entry/mesh.obj (+ mesh.mtl, texture.jpg), $entry/mesh.ply"
 echo "  report: $entry/report.json"
-"$bin/monomesh" report "$entry" | grep -E '^(points|mesh_vertices|mesh_triangles|inliers|gate_track_inliers|b_tries|total_recon_s) ' | sed 's/^/    /'
+echo "  preview: $entry/preview.png, the scene for a viewer: $entry/mesh.glb"
+brief=$("$bin/monomesh" report "$entry")
+printf '%s\n' "$brief" | grep -E '^(points|mesh_mode|mesh_vertices|mesh_triangles|inliers|gate_track_inliers|b_tries|total_recon_s) ' | sed 's/^/    /'
+# The default mesh is the dense one; a fall-back to the sparse mesh says why and fails the demo.
+printf '%s\n' "$brief" | grep -q '^mesh_mode dense ' || {
+  echo "demo: the entry did not get the dense mesh"; exit 1; }

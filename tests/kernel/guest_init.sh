@@ -126,11 +126,13 @@ appliance() {
   wait $feeder
   summary=$(tail -n 1 $d/eval.txt)
   line=$(grep -v '^entries' $d/eval.txt | head -n 1)
+  # The entry's mesh: "dense SHARE" (of A with a dense depth), the default, or "sparse (why)".
+  mesh=$(monomesh report $d/spool/latest 2> /dev/null | sed -n 's/^mesh_mode //p')
   # "entries: 1, evaluated 1; rot err median X max Y deg; trans dir err median A max B deg"
-  verdict=$(echo "$summary" | awk -v mr="$max_rot" -v mt="$max_trans" '{
+  verdict=$(echo "$summary" | awk -v mr="$max_rot" -v mt="$max_trans" -v mesh="$mesh" '{
     ev = $4 + 0; rot = $10 + 0; tr = $18 + 0;
-    print (ev >= 1 && rot <= mr && tr <= mt) ? "PASS" : "FAIL" }')
-  echo "CHECK $name $verdict $((t1 - t0)) s from trigger to entry; $line; $summary (limits $max_rot / $max_trans deg)"
+    print (ev >= 1 && rot <= mr && tr <= mt && mesh ~ /^dense /) ? "PASS" : "FAIL" }')
+  echo "CHECK $name $verdict $((t1 - t0)) s from trigger to entry; $line; $summary (limits $max_rot / $max_trans deg); mesh ${mesh:-none}"
   [ "$verdict" = PASS ] || dump $d result.json trigger.err feed.err monomeshd.log eval.txt
 }
 appliance appliance-loopback /dataset
