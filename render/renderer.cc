@@ -290,6 +290,11 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
 
 Renderer::~Renderer() = default;
 
+std::string WarmUpRenderer() {
+  const Renderer renderer;
+  return renderer.error();
+}
+
 bool Renderer::ok() const { return impl_->error.empty(); }
 const std::string& Renderer::error() const { return impl_->error; }
 

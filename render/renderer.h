@@ -80,6 +80,12 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Initializes the process's EGL display and loads the GL driver, which a process does once
+/// (its display is never terminated): with Mesa's llvmpipe that first Renderer takes about
+/// 0.15-0.2 s, each later one about 5 ms. A long-running program calls this at start so that
+/// its first render does not pay for it. Returns the renderer's error (empty when it works).
+std::string WarmUpRenderer();
+
 /// The column-major 4x4 GL projection for an OpenCV camera (see the file comment): clip =
 /// P * [x_cam; 1]. Exposed for tests.
 Eigen::Matrix4f GlProjectionFromK(const Eigen::Matrix3d& K, int width, int height,

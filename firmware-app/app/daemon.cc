@@ -37,6 +37,7 @@
 #include "capture/source_uri.h"
 #include "capture/trigger.h"
 #include "entry/json_text.h"
+#include "render/renderer.h"
 #include "scale/odometry.h"
 #include "session/capture_session.h"
 #include "session/recent_frames.h"
@@ -219,6 +220,10 @@ class Worker {
   }
 
   void Run() {
+    // The preview's GL driver is loaded now, not on the first capture's critical path.
+    if (const std::string error = WarmUpRenderer(); !error.empty()) {
+      spdlog::warn("preview renderer unavailable (entries get no preview.png): {}", error);
+    }
     for (;;) {
       Job job;
       {
