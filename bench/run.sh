@@ -3,7 +3,7 @@
 #   1. `monomesh eval` on the TUM keyframe pairs (step 1): per-pair time from two images and
 #      after keyframe B (A's SIFT precomputed), wall and process CPU, one thread;
 #   2. every *_bench Google Benchmark binary in the build (e.g. recon_matcher_bench);
-#   3. monomeshd's time to READY and peak RSS while reconstructing a 640x480 and a 1280x720 pair;
+#   3. monomeshd's time to READY and peak RSS over three captures at 640x480 and 1280x720;
 #   4. COLMAP (when `colmap` is installed) on the same pairs: feature_extractor,
 #      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT;
 #   5. the walk: `monomesh eval --walk --every-frame` on the 17 TUM keyframes, and COLMAP's
