@@ -500,11 +500,13 @@ std::string BriefReport(const EntryReport& r) {
   line("mesh_vertices", std::to_string(r.counts.mesh_vertices));
   line("mesh_triangles", std::to_string(r.counts.mesh_triangles));
   // "dense 0.81" (the share of A with a dense depth) or "sparse", with the fallback's reason.
-  line("mesh_mode", r.meshing.mode == "dense"
-                        ? "dense " + std::to_string(r.meshing.dense_valid_fraction)
-                        : r.meshing.mode + (r.meshing.dense_fallback_reason.empty()
-                                                ? std::string()
-                                                : " (" + r.meshing.dense_fallback_reason + ")"));
+  std::string mesh_mode = r.meshing.mode;
+  if (mesh_mode == "dense") {
+    mesh_mode += " " + std::to_string(r.meshing.dense_valid_fraction);
+  } else if (!r.meshing.dense_fallback_reason.empty()) {
+    mesh_mode += " (" + r.meshing.dense_fallback_reason + ")";
+  }
+  line("mesh_mode", mesh_mode);
   line("median_triangulation_angle_deg", std::to_string(r.quality.median_triangulation_angle_deg));
   line("b_tries", std::to_string(r.keyframe_b_tries.size()));
   line("total_recon_s", std::to_string(r.timings_s.total_recon));

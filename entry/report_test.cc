@@ -169,6 +169,10 @@ TEST(EntryReport, BriefReportHasOneKeyValueLineEach) {
   dense.meshing.mode = "dense";
   dense.meshing.dense_valid_fraction = 0.81;
   EXPECT_NE(BriefReport(dense).find("mesh_mode dense 0.810000\n"), std::string::npos);
+  EntryReport fell_back = Filled();
+  fell_back.meshing.dense_fallback_reason = "dense mesh has no triangles";
+  EXPECT_NE(BriefReport(fell_back).find("mesh_mode sparse (dense mesh has no triangles)\n"),
+            std::string::npos);
   EXPECT_NE(brief.find("scale none (up to scale)"), std::string::npos) << brief;
   EXPECT_EQ(brief.find("failure "), std::string::npos) << brief;
 }
