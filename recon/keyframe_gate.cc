@@ -1,6 +1,7 @@
 #include "recon/keyframe_gate.h"
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
@@ -127,12 +128,6 @@ GateDecision KeyframeGate::Update(const cv::Mat& gray) {
   d.homography_inliers = probe.classification.h_inliers;
   d.median_parallax_deg = probe.median_triangulation_angle_deg;
   d.failure = probe.failure;
-  // About halfway to B: an angle up to half the required one, or no angle measured yet.
-  const bool measured = d.median_parallax_deg > 0;
-  if ((measured && d.median_parallax_deg <= 0.5 * target_parallax_deg_) ||
-      (!measured && !(halfway_.parallax_deg > 0))) {
-    halfway_ = GateWaypoint{previous_, points_a_, points_prev_, d.median_parallax_deg};
-  }
   // The probe already held the angle against the reconstruction's minimum.
   const bool running_out =
       d.tracks < options_.early_b_tracks && target_parallax_deg_ <= options_.parallax_deg;
@@ -147,6 +142,19 @@ GateDecision KeyframeGate::Update(const cv::Mat& gray) {
   } else {
     d.verdict = GateDecision::Verdict::kTakeB;
     d.reason = "parallax reached";
+  }
+  // About halfway to B: of the frames before B, the one whose angle is nearest half the
+  // required one (the gate may skip frames when it falls behind, so "the last one below half"
+  // can sit next to A); a frame without an angle only while none was measured.
+  if (d.verdict != GateDecision::Verdict::kTakeB) {
+    const double half = 0.5 * target_parallax_deg_;
+    const bool measured = d.median_parallax_deg > 0;
+    const bool held = halfway_.parallax_deg > 0;
+    if (measured ? (!held || std::abs(d.median_parallax_deg - half) <=
+                                 std::abs(halfway_.parallax_deg - half))
+                 : !held) {
+      halfway_ = GateWaypoint{previous_, points_a_, points_prev_, d.median_parallax_deg};
+    }
   }
   return d;
 }

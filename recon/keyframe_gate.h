@@ -109,8 +109,8 @@ class KeyframeGate {
   /// (undistorted pixels, index-aligned).
   [[nodiscard]] const std::vector<cv::Point2f>& track_origins_a() const { return points_a_; }
   [[nodiscard]] const std::vector<cv::Point2f>& track_positions() const { return points_prev_; }
-  /// The last frame at which the tracks' angle was at most half the required one: about
-  /// halfway to B, a further view for the dense stage. Empty before the first Update.
+  /// Of the frames before B, the one at which the tracks' angle was nearest half the required
+  /// one: about halfway to B, a further view for the dense stage. Empty before the first Update.
   [[nodiscard]] const GateWaypoint& halfway() const { return halfway_; }
 
   /// Raises the angle the next B must reach (a later B after the reconstruction refused one);

@@ -111,5 +111,32 @@ TEST(KeyframeGate, BundledKeyframesFireOnTheNextFrame) {
   EXPECT_EQ(RunGate(frames, options, &max_parallax), 1);
 }
 
+// The frame kept for the dense stage is the one nearest half the required angle, also when the
+// frames between arrive far apart (a gate that fell behind): here the bundled keyframes, about
+// 1 s apart, against a required angle of 8 deg: measured 2.1 and 5.1 deg before B (10.3 deg),
+// so the frame at 5.1 deg, not the last one below 4 deg.
+TEST(KeyframeGate, HalfwayIsTheFrameNearestHalfTheRequiredAngle) {
+  std::vector<cv::Mat> frames;
+  for (const TumFrame& f : ReadTumList(kBundled / "rgb.txt")) frames.push_back(Gray(f.path));
+  KeyframeGateOptions options;
+  options.parallax_deg = 8.0;
+  KeyframeGate gate(TumK(), options);
+  ASSERT_GT(gate.Start(frames[0]), 100);
+  std::vector<double> angles;  // Of the frames before B.
+  for (size_t i = 1; i < frames.size(); ++i) {
+    const GateDecision d = gate.Update(frames[i]);
+    std::cout << "  frame " << i << ": tracks " << d.tracks << ", parallax "
+              << d.median_parallax_deg << " deg, " << d.reason << "\n";
+    if (d.verdict != GateDecision::Verdict::kWait) break;
+    if (d.median_parallax_deg > 0) angles.push_back(d.median_parallax_deg);
+  }
+  ASSERT_GE(angles.size(), 2u) << "the test needs two measured frames before B";
+  const double nearest = *std::min_element(angles.begin(), angles.end(), [](double l, double r) {
+    return std::abs(l - 4.0) < std::abs(r - 4.0);
+  });
+  EXPECT_EQ(gate.halfway().parallax_deg, nearest);
+  EXPECT_FALSE(gate.halfway().gray.empty());
+}
+
 }  // namespace
 }  // namespace mm

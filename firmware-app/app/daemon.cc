@@ -220,10 +220,6 @@ class Worker {
   }
 
   void Run() {
-    // The preview's GL driver is loaded now, not on the first capture's critical path.
-    if (const std::string error = WarmUpRenderer(); !error.empty()) {
-      spdlog::warn("preview renderer unavailable (entries get no preview.png): {}", error);
-    }
     for (;;) {
       Job job;
       {
@@ -610,6 +606,11 @@ int Daemon::Run() {
                                          return odometry_.Lookup(config_, first, last);
                                        });
 
+  // The preview's GL driver is loaded before the daemon says it is ready, so neither the first
+  // capture's critical path nor its gate (which it would slow into skipping frames) pays for it.
+  if (const std::string error = WarmUpRenderer(); !error.empty()) {
+    spdlog::warn("preview renderer unavailable (entries get no preview.png): {}", error);
+  }
   if (sd_watchdog_enabled(0, &watchdog_usec_) <= 0) watchdog_usec_ = 0;
   last_watchdog_ = std::chrono::steady_clock::now();
   spdlog::info("ready: control socket {}, spool {}", config_.control_socket.string(),
