@@ -112,6 +112,7 @@ if want daemon; then
   # Time from exec to READY (the control socket answers once the camera is open) and the daemon's
   # peak RSS (VmHWM) after three captures reconstructed at that size: the first capture has no
   # frames before A and no preview drawn before it, so the steady state shows from the second.
+  captures=3
   for size in 640x480 1280x720; do
     w=${size%x*}; h=${size#*x}
     sx=$(python3 -c "print($w/640)"); sy=$(python3 -c "print($h/480)")
@@ -147,16 +148,16 @@ TOML
     done
     ready=$(python3 -c "print($(date +%s.%N) - $start)")
     : > "$d/result.json"
-    for _ in 1 2 3; do
+    for ((i = 0; i < captures; i++)); do
       "$build/firmware-app/monomesh" ctl trigger --wait 120 --socket "$d/control.sock" \
         >> "$d/result.json"
     done
     hwm=$(awk '/VmHWM/ {print $2}' /proc/$pid/status)
     kill -TERM $pid; wait $pid || true
     ok=$(grep -c '"ok": true' "$d/result.json" || true)
-    printf '%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$ok" >> "$work/footprint.tsv"
-    printf '%s: READY after %.3f s, peak RSS %d MiB (%d MB) over 3 captures, %s ok\n' "$size" \
-      "$ready" $((hwm / 1024)) $((hwm * 1024 / 1000000)) "$ok"
+    printf '%s\t%s\t%s\t%s\t%s\n' "$size" "$ready" "$hwm" "$captures" "$ok" >> "$work/footprint.tsv"
+    printf '%s: READY after %.3f s, peak RSS %d MiB (%d MB) over %d captures, %s ok\n' "$size" \
+      "$ready" $((hwm / 1024)) $((hwm * 1024 / 1000000)) "$captures" "$ok"
   done
 fi
 
@@ -279,8 +280,8 @@ if os.path.exists(f"{work}/walk.json"):
               f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
     result["walk"] = walk
 result["daemon_footprint"] = [
-    {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]), "captures": 3,
-     "captures_ok": int(r[3])}
+    {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]),
+     "captures": int(r[3]), "captures_ok": int(r[4])}
     for r in (l.split("\t") for l in open(f"{work}/footprint.tsv").read().splitlines() if l)]
 json.dump(result, open(out, "w"), indent=2)
 print(f"written to {out}")
