@@ -76,6 +76,7 @@ int CaptureSession::Start(const cv::Mat& gray_a, double time_s) {
   const int corners = gate_.Start(gray_a);
   last_decision_ = GateDecision{};
   last_decision_.tracks = corners;
+  last_decision_.reason = "no frame after A reached the gate";
   return corners;
 }
 

@@ -81,6 +81,9 @@ TEST(CaptureSession, TimeoutWithoutBEndsWithNotEnoughMotion) {
   EXPECT_EQ(session.OnTime(10.4), Step::kWait);
   EXPECT_EQ(session.OnTime(10.6), Step::kFailed);
   EXPECT_EQ(session.failure_reason().rfind("not enough motion", 0), 0u) << session.failure_reason();
+  // No frame came after A (a replay that ended): the reason says so, not an empty clause.
+  EXPECT_NE(session.failure_reason().find("no frame after A reached the gate)"), std::string::npos)
+      << session.failure_reason();
 }
 
 TEST(CaptureSession, TimeoutWaitsForTheBInFlight) {
