@@ -95,6 +95,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   const WalkMap* map = nullptr;
   Eigen::Matrix3d k_matrix = Eigen::Matrix3d::Identity();  // Of the undistorted frames.
   const double cpu_start = ThreadCpuSeconds();
+  std::vector<double> frame_cpu;  // Frames that did not become keyframes.
 
   auto keyframe_eval = [&](size_t frame, const WalkKeyframeSummary& summary, double cpu_s) {
     WalkKeyframeEval k;
@@ -145,13 +146,24 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     }
     const double cpu0 = ThreadCpuSeconds();
     const WalkFrameStep step = tracker->AddFrame(image, frames[i].timestamp_s);
-    if (step.added) keyframe_eval(i, *step.added, ThreadCpuSeconds() - cpu0);
+    const double cpu_s = ThreadCpuSeconds() - cpu0;
+    if (step.added) {
+      keyframe_eval(i, *step.added, cpu_s);
+      result.keyframes.back().reason = step.keyframe_reason;
+    } else {
+      frame_cpu.push_back(cpu_s);
+      if (step.tracked) ++result.summary.tracked_frames;
+    }
   }
   WalkEvalSummary& s = result.summary;
   s.cpu_total_s = ThreadCpuSeconds() - cpu_start;
   s.keyframes = static_cast<int>(result.keyframes.size());
   s.segments = map ? map->segments() : 0;
+  s.cpu_per_frame_s_median = frame_cpu.empty() ? 0.0 : MedianOf(frame_cpu);
   if (map) {
+    s.relocalizations = map->relocalizations();
+    s.merges = map->merges();
+    s.lost_keyframes = map->lost_keyframes();
     s.points = static_cast<int>(std::count_if(map->points().begin(), map->points().end(),
                                               [](const WalkPoint& p) { return p.valid; }));
   }
@@ -162,8 +174,11 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   for (size_t i = 0; i < result.keyframes.size(); ++i) {
     WalkKeyframeEval& k = result.keyframes[i];
     cpu.push_back(k.cpu_s);
-    if (!k.walk.registered) continue;
-    if (k.walk.failure.empty()) ++s.registered;  // Not a new segment after a failure.
+    // The final map: keyframes relocalised later or in a segment merged since count.
+    const WalkKeyframe& final_keyframe = map->keyframes()[i];
+    k.segment = final_keyframe.segment;
+    if (!final_keyframe.registered) continue;
+    if (final_keyframe.joined) ++s.registered;
     const std::optional<Eigen::Isometry3d> gt =
         trajectory.WorldFromCamAt(k.timestamp_s, options.max_gt_dt_s);
     if (!gt) continue;
@@ -171,7 +186,9 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     world_from_cam_gt[i] = *gt;
     truth[i] = gt->translation();
     estimated[i] = map->keyframes()[i].cam_from_segment.inverse().translation();
-    ++size_of_segment[k.walk.segment];
+    k.centre_in_segment = estimated[i];
+    k.centre_gt = truth[i];
+    ++size_of_segment[k.segment];
   }
   s.cpu_per_keyframe_s_median = cpu.empty() ? 0.0 : MedianOf(cpu);
   if (size_of_segment.empty()) return result.ok = true, result;
@@ -182,7 +199,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   std::vector<int> ids;
   for (size_t i = 0; i < result.keyframes.size(); ++i) {
     WalkKeyframeEval& k = result.keyframes[i];
-    if (k.has_gt && k.walk.registered && k.walk.segment == s.evaluated_segment) {
+    if (k.has_gt && map->keyframes()[i].registered && k.segment == s.evaluated_segment) {
       k.in_evaluated_segment = true;
       ids.push_back(static_cast<int>(i));
     }
@@ -240,7 +257,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       const cv::Mat depth = depth_at(k.timestamp_s);
       if (depth.empty()) continue;
       const WalkKeyframe& keyframe = map->keyframes()[static_cast<size_t>(id)];
-      std::vector<double> errors;
+      std::vector<double> errors, ratios;
       for (size_t i = 0; i < keyframe.point_of_keypoint.size(); ++i) {
         const int point = keyframe.point_of_keypoint[i];
         if (point < 0 || !map->points()[static_cast<size_t>(point)].valid) continue;
@@ -254,10 +271,12 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
                           map->points()[static_cast<size_t>(point)].position_in_segment)
                              .z();
         errors.push_back(std::abs(s.sim3_scale * z - truth_m) / truth_m);
+        ratios.push_back(truth_m / z);
       }
       if (errors.empty()) continue;
       k.depth_points = static_cast<int>(errors.size());
       k.point_depth_rel_err_median = MedianOf(errors);
+      k.depth_scale = MedianOf(ratios);
       ++s.depth_keyframes;
       depth_errors.insert(depth_errors.end(), errors.begin(), errors.end());
     }
@@ -339,14 +358,18 @@ std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
   char line[512];
   std::snprintf(
       line, sizeof line,
-      "kf %3d frame %5d seg %d %s matches %4d 3d %4d inliers %4d new %4d ba %.2f px "
-      "err %6.2f cm rpe %5.2f deg cpu %5.1f ms (sift %.0f match %.0f pose %.0f ba %.0f)%s%s",
-      k.walk.index, k.frame, k.walk.segment,
-      !k.walk.registered ? "LOST " : (k.walk.failure.empty() ? "reg  " : "NEW  "), k.walk.matches,
-      k.walk.matches_3d, k.walk.pnp_inliers, k.walk.new_points, k.walk.bundle_rms_px,
-      100.0 * k.position_err_m, k.rpe_rot_deg, 1e3 * k.cpu_s, 1e3 * k.walk.sift_s,
-      1e3 * k.walk.matching_s, 1e3 * k.walk.pose_s, 1e3 * k.walk.bundle_s,
-      k.walk.failure.empty() ? "" : "  ", k.walk.failure.c_str());
+      "kf %3d frame %5d seg %d %s matches %4d 3d %4d prior %4d inliers %4d new %4d ba %.2f px "
+      "err %6.2f cm rpe %5.2f deg cpu %5.1f ms (sift %.0f match %.0f pose %.0f ba %.0f) %s%s%s",
+      k.walk.index, k.frame, k.segment,
+      !k.walk.registered           ? "LOST "
+      : k.walk.merged_segment >= 0 ? "MERGE"
+      : k.walk.relocalized_to >= 0 ? "RELOC"
+                                   : (k.walk.failure.empty() ? "reg  " : "NEW  "),
+      k.walk.matches, k.walk.matches_3d, k.walk.prior_matches, k.walk.pnp_inliers,
+      k.walk.new_points, k.walk.bundle_rms_px, 100.0 * k.position_err_m, k.rpe_rot_deg,
+      1e3 * k.cpu_s, 1e3 * k.walk.sift_s, 1e3 * k.walk.matching_s, 1e3 * k.walk.pose_s,
+      1e3 * k.walk.bundle_s, k.reason.c_str(), k.walk.failure.empty() ? "" : "  ",
+      k.walk.failure.c_str());
   return std::string(line) + "\n";
 }
 
@@ -358,12 +381,15 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
       "%d: %d keyframes\n"
       "  ATE RMSE %.2f cm (max %.2f cm) over a %.2f m path (%.3f %%), RPE rotation "
       "median %.3f deg, scale drift %.2f %%\n"
-      "  CPU per keyframe median %.1f ms (total %.2f s), %d map points; their depth at %d "
-      "keyframes: median %.2f %%, p90 %.2f %% (%d observations)\n",
+      "  relocalisations %d, segments merged %d, lost keyframes %d; %d frames tracked\n"
+      "  CPU per keyframe median %.1f ms, per other frame median %.2f ms (total %.2f s), %d "
+      "map points; their depth at %d keyframes: median %.2f %%, p90 %.2f %% (%d "
+      "observations)\n",
       s.frames, s.keyframes, s.registered, s.segments, s.evaluated_segment, s.evaluated_keyframes,
       100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m, s.path_length_m,
       s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0, s.rpe_rot_deg_median,
-      100.0 * s.scale_drift, 1e3 * s.cpu_per_keyframe_s_median, s.cpu_total_s, s.points,
+      100.0 * s.scale_drift, s.relocalizations, s.merges, s.lost_keyframes, s.tracked_frames,
+      1e3 * s.cpu_per_keyframe_s_median, 1e3 * s.cpu_per_frame_s_median, s.cpu_total_s, s.points,
       s.depth_keyframes, 100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90,
       s.depth_points);
   std::string out = text;
@@ -406,6 +432,11 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                {"rpe_rot_deg_median", s.rpe_rot_deg_median},
                {"scale_drift", s.scale_drift},
                {"cpu_per_keyframe_s_median", s.cpu_per_keyframe_s_median},
+               {"cpu_per_frame_s_median", s.cpu_per_frame_s_median},
+               {"tracked_frames", s.tracked_frames},
+               {"relocalizations", s.relocalizations},
+               {"merges", s.merges},
+               {"lost_keyframes", s.lost_keyframes},
                {"cpu_total_s", s.cpu_total_s},
                {"points", s.points},
                {"point_depth_rel_err",
@@ -434,8 +465,13 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
          {"frame", k.frame},
          {"timestamp", k.timestamp_s},
          {"image", k.image},
-         {"segment", k.walk.segment},
+         {"reason", k.reason},
+         {"segment", k.segment},
+         {"segment_when_added", k.walk.segment},
          {"registered", k.walk.registered},
+         {"relocalized_to", k.walk.relocalized_to},
+         {"merged_segment", k.walk.merged_segment},
+         {"prior_matches", k.walk.prior_matches},
          {"failure", k.walk.failure},
          {"matches", k.walk.matches},
          {"matches_3d", k.walk.matches_3d},
@@ -445,6 +481,13 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
          {"cpu_s", k.cpu_s},
          {"has_gt", k.has_gt},
          {"position_err_m", k.in_evaluated_segment ? json(k.position_err_m) : json()},
+         {"depth_scale", k.depth_points > 0 ? json(k.depth_scale) : json()},
+         {"centre_in_segment", k.walk.registered
+                                   ? json::array({k.centre_in_segment.x(), k.centre_in_segment.y(),
+                                                  k.centre_in_segment.z()})
+                                   : json()},
+         {"centre_gt",
+          k.has_gt ? json::array({k.centre_gt.x(), k.centre_gt.y(), k.centre_gt.z()}) : json()},
          {"rpe_rot_deg", k.rpe_rot_deg >= 0 ? json(k.rpe_rot_deg) : json()},
          {"point_depth_rel_err_median",
           k.point_depth_rel_err_median >= 0 ? json(k.point_depth_rel_err_median) : json()}});

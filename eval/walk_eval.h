@@ -44,16 +44,23 @@ struct WalkEvalOptions {
 
 struct WalkKeyframeEval {
   WalkKeyframeSummary walk;  ///< What the walk did with it.
+  int segment = 0;           ///< Its segment in the final map (after merges).
+  std::string reason;        ///< Why the tracker made it a keyframe (WalkFrameStep).
   int frame = 0;             ///< Index in the list.
   double timestamp_s = 0.0;
   std::string image;
   double cpu_s = 0.0;  ///< Thread CPU time of AddKeyframe.
   bool has_gt = false;
   bool in_evaluated_segment = false;
-  double position_err_m = 0.0;               ///< After the alignment (evaluated segment only).
+  double position_err_m = 0.0;  ///< After the alignment (evaluated segment only).
+  Eigen::Vector3d centre_in_segment = Eigen::Vector3d::Zero();  ///< Estimated (final map).
+  Eigen::Vector3d centre_gt = Eigen::Vector3d::Zero();          ///< Ground truth (has_gt).
   double rpe_rot_deg = -1.0;                 ///< To the previous keyframe of its segment; -1: none.
   int depth_points = 0;                      ///< Its map points compared with its depth map.
   double point_depth_rel_err_median = -1.0;  ///< -1: no depth map.
+  /// Median of depth-map depth / map depth over its points: the map's local scale (metres
+  /// per map unit) at the keyframe, whose change along the walk is its scale drift.
+  double depth_scale = 0.0;
 };
 
 struct WalkEvalSummary {
@@ -72,6 +79,12 @@ struct WalkEvalSummary {
   double rpe_rot_deg_median = 0.0;
   double scale_drift = 0.0;  ///< 0 when a third has fewer than 3 keyframes.
   double cpu_per_keyframe_s_median = 0.0;
+  /// Thread CPU time of the frames that did not become keyframes (tracking and the gate).
+  double cpu_per_frame_s_median = 0.0;
+  int tracked_frames = 0;  ///< Of those, with a pose from the tracked map points.
+  int relocalizations = 0;
+  int merges = 0;            ///< Segments merged into another.
+  int lost_keyframes = 0;    ///< Keyframes neither registered nor relocalised.
   double cpu_total_s = 0.0;  ///< All frames, gate included.
   int points = 0;            ///< Valid map points.
   /// The map points' depth in each evaluated keyframe that has a depth map (depth.txt,

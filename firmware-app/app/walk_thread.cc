@@ -230,7 +230,15 @@ void WalkThread::AddFrame(const FramePtr& frame) {
   std::lock_guard lock(mutex_);
   ++status_.frames;
   status_.parallax_deg = tracker_->parallax_deg();
+  status_.tracking = step.tracked;
+  if (step.tracked) ++status_.tracked_frames;
   if (!step.added) return;
+  const WalkMap& map = tracker_->map();
+  status_.segments = map.segments();
+  status_.relocalizations = map.relocalizations();
+  status_.merges = map.merges();
+  status_.loop_closures = map.loop_closures();
+  status_.lost_keyframes = map.lost_keyframes();
   jpegs_.push_back(EncodeKeyframeJpeg(undistorted));
   infos_.push_back(KeyframeInfoOf(*frame));
   summaries_.push_back(*step.added);

@@ -41,8 +41,15 @@ struct WalkStatus {
   int keyframes = 0;
   int registered = 0;  ///< Registered to the map they joined (not new segments after a loss).
   int segment = 0;     ///< The current segment.
-  double parallax_deg = 0.0;  ///< The newest frame's against the last keyframe.
-  double seconds = 0.0;       ///< Since the start.
+  int segments = 0;    ///< Segments in the map now (merged ones count once).
+  int relocalizations = 0;
+  int merges = 0;  ///< Segments merged into another.
+  int loop_closures = 0;
+  int lost_keyframes = 0;       ///< Keyframes neither registered nor relocalised.
+  uint64_t tracked_frames = 0;  ///< Frames with a pose from the tracked map points.
+  bool tracking = false;        ///< The newest frame had one.
+  double parallax_deg = 0.0;    ///< The newest frame's against the last keyframe.
+  double seconds = 0.0;         ///< Since the start.
 };
 
 /// What ended a walk.

@@ -117,8 +117,12 @@ function showWalk(walk) {
     const target = Number(walk.target_deg) || 0;
     const parallax = Number(walk.parallax_deg) || 0;
     bar.value = target > 0 ? Math.min(parallax / target, 1) : 0;
+    const segments = walk.segments ?? 1;
     $("walk-text").textContent = `${walk.keyframes} keyframes, ${walk.registered} registered, ` +
-      `segment ${walk.segment}, ${walk.frames} frames, ${Number(walk.seconds).toFixed(0)} s` +
+      `${segments} segment${segments === 1 ? "" : "s"}, ` +
+      `${walk.relocalizations ?? 0} relocalised, ${walk.loop_closures ?? 0} loops closed, ` +
+      `${walk.frames} frames (${walk.tracking ? "tracking" : "not tracking"}), ` +
+      `${Number(walk.seconds).toFixed(0)} s` +
       (walk.finishing ? "" : `; next keyframe at ${parallax.toFixed(2)}° of ${target.toFixed(2)}°`);
   } else {
     state.textContent = "not walking";
