@@ -11,6 +11,11 @@
 //
 // States: idle -> (trigger: keyframe A = newest frame) tracking -> (keyframe B taken)
 // reconstructing -> idle. A trigger outside idle is refused with the state named.
+//
+// The loop is the Daemon class (app/daemon_loop.h), its methods defined by concern in
+// app/daemon.cc, capture_state.cc, walk_control.cc, control_clients.cc, control_verbs.cc,
+// events.cc and shutdown.cc; the worker is app/worker.h (docs/architecture.md, the daemon's
+// files).
 
 #include <memory>
 #include <string>

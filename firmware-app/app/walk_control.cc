@@ -1,0 +1,105 @@
+// Walk mode on the event loop (docs/walk.md): `walk start` / `walk stop` (or a long press),
+// and the walk thread's keyframes and entry as they come. The walk itself runs in WalkThread.
+
+#include "app/daemon_loop.h"
+
+#include <spdlog/spdlog.h>
+
+#include <utility>
+
+namespace mm::daemon_detail {
+
+json Daemon::OnWalkStart(const char* origin) {
+  const auto refuse = [&](const std::string& error) {
+    spdlog::warn("walk start ({}) refused: {}", origin, error);
+    Emit({{"event", "walk_refused"}, {"origin", origin}, {"error", error}});
+    return json{{"ok", false}, {"error", error}};
+  };
+  if (state_ != State::kIdle) return refuse(std::string("busy: ") + Name(state_));
+  if (walk_->status().walking) return refuse("busy: the last walk's entry is being written");
+  FramePtr latest = capture_->Latest();
+  if (!latest) return refuse("no frame from the camera yet");
+  ++walks_;
+  last_walk_sequence_ = latest->sequence;
+  spdlog::info("walk {} ({}): started at frame {} ({})", walks_, origin, latest->sequence,
+               latest->source_id);
+  Emit({{"event", "walk_started"},
+        {"walk", walks_},
+        {"origin", origin},
+        {"frame", latest->sequence}});
+  walk_->Start(walks_, std::move(latest));
+  SetState(State::kWalking);
+  return {{"ok", true}, {"walk", walks_}};
+}
+
+json Daemon::OnWalkStop(const char* origin, const std::string& reason) {
+  if (state_ != State::kWalking) {
+    const std::string error = std::string("not walking (") + Name(state_) + ")";
+    spdlog::warn("walk stop ({}) refused: {}", origin, error);
+    return {{"ok", false}, {"error", error}};
+  }
+  const WalkStatus w = walk_->status();
+  if (w.finishing) return {{"ok", false}, {"error", "walk already stopping"}};
+  spdlog::info("walk {}: stopped ({}, {}) after {} keyframes; writing its entry", w.walk, origin,
+               reason, w.keyframes);
+  Emit({{"event", "walk_stopping"},
+        {"walk", w.walk},
+        {"reason", reason},
+        {"keyframes", w.keyframes}});
+  walk_->Stop(reason);
+  return {{"ok", true}, {"walk", w.walk}, {"keyframes", w.keyframes}};
+}
+
+void Daemon::OnWalkDone() {
+  for (const WalkKeyframeSummary& k : walk_->TakeKeyframes()) {
+    if (!k.failure.empty()) {
+      spdlog::warn("walk {}: keyframe {} starts segment {}: {}", walks_, k.index, k.segment,
+                   k.failure);
+    } else {
+      spdlog::info("walk {}: keyframe {} registered ({} PnP inliers, {} new points, {:.3f} s)",
+                   walks_, k.index, k.pnp_inliers, k.new_points, k.time_s);
+    }
+    Emit({{"event", "walk_keyframe"},
+          {"walk", walks_},
+          {"keyframe", k.index},
+          {"segment", k.segment},
+          {"registered", k.registered},
+          {"failure", k.failure},
+          {"pnp_inliers", k.pnp_inliers},
+          {"new_points", k.new_points},
+          {"seconds", k.time_s}});
+  }
+  while (std::optional<WalkOutcome> o = walk_->TakeOutcome()) {
+    if (o->ok) {
+      spdlog::info(
+          "walk {}: map written to {} ({} keyframes, {} registered, {} segments; "
+          "{:.2f} s; ended by {})",
+          o->walk, o->entry, o->keyframes, o->registered, o->segments, o->seconds, o->stop_reason);
+      Emit({{"event", "walk_entry"},
+            {"walk", o->walk},
+            {"entry", o->entry},
+            {"keyframes", o->keyframes},
+            {"registered", o->registered},
+            {"segments", o->segments},
+            {"reason", o->stop_reason},
+            {"seconds", o->seconds}});
+      LogHookStart(hooks_.OnEntry(o->entry, o->walk));
+    } else {
+      spdlog::error("walk {}: {}", o->walk, o->error);
+      Emit({{"event", "walk_failed"}, {"walk", o->walk}, {"error", o->error}});
+      LogHookStart(hooks_.OnFailure(o->error, o->walk));
+    }
+    last_walk_ = {{"walk", o->walk},
+                  {"ok", o->ok},
+                  {"entry", o->entry},
+                  {"error", o->error},
+                  {"reason", o->stop_reason},
+                  {"keyframes", o->keyframes},
+                  {"registered", o->registered},
+                  {"segments", o->segments}};
+    if (state_ == State::kWalking) SetState(State::kIdle);
+  }
+  OnFrame();  // A newer frame may be waiting.
+}
+
+}  // namespace mm::daemon_detail
