@@ -7,6 +7,10 @@
 
 namespace mm::cli {
 
+/// Exit code of a command refusing an input file's content (sysexits.h EX_DATAERR; a GLB whose
+/// accessors overrun its buffers, docs/exit_codes.md).
+inline constexpr int kExitDataError = 65;
+
 /// What a registered subcommand runs once parsed; returns the process exit code.
 using Runner = std::function<int()>;
 
