@@ -1,7 +1,8 @@
 // libFuzzer target for monomesh-web's request handling (the fuzz preset, scripts/fuzz.sh): any
 // bytes arrive as one connection's request at a real WebServer over a spool with one entry.
-// Whatever they are, the service answers or closes, and never serves a byte of the file
-// outside the spool and the page files (its marker aborts the run).
+// Whatever they are, the service answers or closes, never serves a byte of the file outside
+// the spool and the page files (its marker aborts the run), and its first answer, when an
+// error, carries a JSON message (docs/web.md; a HEAD's answer has no body).
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -12,6 +13,7 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -110,5 +112,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   ::close(fd);
   if (reply.find(kSecret) != std::string::npos) std::abort();
+  const bool head = size >= 4 && std::memcmp(data, "HEAD", 4) == 0;
+  if (!head && reply.size() > 12 && reply.compare(0, 9, "HTTP/1.1 ") == 0 &&
+      (reply[9] == '4' || reply[9] == '5')) {
+    const size_t end = reply.find("\r\n\r\n");
+    if (end == std::string::npos || reply.compare(end + 4, 10, "{\"error\":\"") != 0) std::abort();
+  }
   return 0;
 }
