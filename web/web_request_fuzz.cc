@@ -10,6 +10,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdint>
 #include <cstdlib>
@@ -112,7 +113,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   ::close(fd);
   if (reply.find(kSecret) != std::string::npos) std::abort();
-  const bool head = size >= 4 && std::memcmp(data, "HEAD", 4) == 0;
+  // A HEAD's answer has no body; httplib cuts a routed answer's body to a Range header's.
+  std::string lower(reinterpret_cast<const char*>(data), size);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const bool head = lower.rfind("head", 0) == 0 || lower.find("range") != std::string::npos;
   if (!head && reply.size() > 12 && reply.compare(0, 9, "HTTP/1.1 ") == 0 &&
       (reply[9] == '4' || reply[9] == '5')) {
     const size_t end = reply.find("\r\n\r\n");
