@@ -178,13 +178,12 @@ void WebServer::Routes() {
   // Every error answer carries a JSON body with a message (docs/web.md): httplib's own (a
   // request that does not parse, an unknown path, a body too large) come without one.
   const size_t max_body = options_.max_body_bytes;
-  // Unhandled: httplib then applies no Range header to the message it did not route.
-  s.set_error_handler(httplib::Server::HandlerWithResponse(
-      [max_body](const httplib::Request&, httplib::Response& res) {
+  // Handled, so httplib frames it (Content-Length); it also applies a Range header to it.
+  s.set_error_handler(
+      httplib::Server::Handler([max_body](const httplib::Request&, httplib::Response& res) {
         if (res.body.empty() && !res.has_header("Content-Type")) {
           SendError(res, res.status, ErrorMessage(res.status, max_body));
         }
-        return httplib::Server::HandlerResponse::Unhandled;
       }));
   s.set_logger([](const httplib::Request& req, const httplib::Response& res) {
     spdlog::debug("web: {} {} {} {}", req.remote_addr, req.method, req.path, res.status);
