@@ -77,6 +77,18 @@ TEST(CalibIo, DistortionThatDoesNotInvertOverTheImageNamesKc) {
   EXPECT_TRUE(wide.CheckInvertible().empty());
 }
 
+// A monotonic distortion that inverts but squeezes the image into a few pixels (all of kc at
+// 1e6, the range's end) is refused too, naming kc and why; a strong pincushion loads.
+TEST(CalibIo, DistortionThatSqueezesTheImageNamesKc) {
+  const std::string head =
+      "[camera]\nimage_size = [640, 480]\nfc = [535.4, 539.2]\ncc = [320.1, 247.6]\n";
+  ExpectErrorMentions(head + "kc = [1e6, 1e6, 0, 0, 1e6]\n", "field 'camera.kc'");
+  ExpectErrorMentions(head + "kc = [1e6, 1e6, 0, 0, 1e6]\n",
+                      "times as far from the principal point undistorted (at most 4");
+  ExpectErrorMentions(head + "kc = [0, 0, 0, 0, 1e6]\n", "camera.kc");
+  EXPECT_TRUE(ParseCalibrationToml(head + "kc = [0.4, 0.2, 0, 0, 0.1]\n", "p").Check().empty());
+}
+
 // Every number through one checked conversion: image sizes that would make OpenCV throw (or
 // wrap through a cast to int), non-finite and absurd values are errors naming the field.
 TEST(CalibIo, NumbersOutOfRangeNameTheField) {

@@ -243,6 +243,12 @@ CalibrateResult CalibrateFromViews(const std::vector<BoardView>& views, cv::Size
     return result;
   }
   result.camera = FromIntr(intr, image_size);
+  // What the loaders would refuse is not written (BouguetCamera::Check: the distortion must
+  // invert over the image).
+  if (const std::string unusable = result.camera.Check(); !unusable.empty()) {
+    result.failure_reason = "the fitted camera cannot be used: " + unusable;
+    return result;
+  }
 
   // Residuals, per-image and overall errors.
   double sum_sq = 0, sum_x = 0, sum_y = 0, sum_xx = 0, sum_yy = 0;

@@ -202,19 +202,28 @@ std::string BouguetCamera::CheckInvertible() const {
   }
   constexpr double kMaxRoundTripPx = 0.05;
   for (const Eigen::Vector2d& pixel : pixels) {
-    const Eigen::Vector2d x_n = Unproject(pixel);
+    const Eigen::Vector2d x_d = DistortedFromPixel(pixel);
+    const Eigen::Vector2d x_n = Undistort(x_d);
     Eigen::Matrix2d jacobian;
     const Eigen::Vector2d back = PixelFromDistorted(Distort(x_n, &jacobian));
     const double moved_px = (back - pixel).norm();
     const bool folded = !(jacobian.determinant() > 0.0);
-    if (folded || !(moved_px <= kMaxRoundTripPx)) {
+    // The ray's distance from the axis over the pinhole's: a lens bends it, but by more than
+    // kMaxRadialScale either way the focal lengths no longer describe the camera (kc = [1e6,
+    // 1e6, 0, 0, 1e6] is monotonic and inverts, yet squeezes a 640x480 image into 10 px).
+    const double scale = x_d.norm() > 1e-9 ? x_n.norm() / x_d.norm() : 1.0;
+    const bool squeezed = !(scale <= kMaxRadialScale && scale >= 1.0 / kMaxRadialScale);
+    if (folded || !(moved_px <= kMaxRoundTripPx) || squeezed) {
       std::ostringstream m;
       m << "kc: the distortion is not invertible over the " << width << "x" << height
         << " image: pixel (" << pixel.x() << ", " << pixel.y() << ") ";
       if (folded) {
         m << "lies beyond a fold of the distortion";
+      } else if (!(moved_px <= kMaxRoundTripPx)) {
+        m << "projects back " << moved_px << " px away (the undistortion does not converge to it)";
       } else {
-        m << "projects back " << moved_px << " px away";
+        m << "is " << scale << " times as far from the principal point undistorted (at most "
+          << kMaxRadialScale << " times as far or near)";
       }
       return m.str();
     }

@@ -103,8 +103,12 @@ struct BouguetCamera {
   [[nodiscard]] std::string Check() const;
   /// With an image size: empty when the distortion inverts over an ellipse reaching 90 % of
   /// the way to each image edge (a grid of pixels inside it and its rim unproject and project
-  /// back within 0.05 px without crossing a fold), else a message naming kc and the pixel.
+  /// back within 0.05 px without crossing a fold, each at most kMaxRadialScale times as far
+  /// from the principal point or as near undistorted), else a message naming kc and the pixel.
   [[nodiscard]] std::string CheckInvertible() const;
+  /// How much farther from (or nearer to) the principal point a pixel's undistorted ray may
+  /// lie than the pinhole puts it: wide barrel lenses fold before 1.5, pincushion stays near 1.
+  static constexpr double kMaxRadialScale = 4.0;
 };
 
 }  // namespace mm

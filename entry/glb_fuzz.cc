@@ -1,6 +1,9 @@
-// libFuzzer target for the GLB reader behind `monomesh render` (the fuzz preset;
-// scripts/fuzz.sh). Any bytes decode or return an error; a decoded mesh indexes only its own
-// vertices, and a finite one survives the encoder: same vertices and triangles.
+// libFuzzer target for DecodeGlb, what `monomesh render` reads a mesh with (ReadGlbFile is the
+// file read around it; the fuzz preset, scripts/fuzz.sh). Any bytes decode or return an error;
+// a decoded mesh is finite, indexes only its own vertices, and survives the encoder: same
+// vertices and triangles. Seeds hold the sizes that once got through: a POSITION count of
+// 2^62 + 1 (the size wrapped), offsets past the buffer, a stride below the element, a texture
+// header of 65535 x 65535 px.
 
 #include <cstdint>
 #include <cstdlib>
@@ -32,7 +35,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if ((t.array() < 0).any() || (t.array() >= n).any()) std::abort();
   }
   if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.vertices.size()) std::abort();
-  if (!Finite(mesh) || mesh.uvs.size() != mesh.vertices.size()) return 0;
+  if (!Finite(mesh)) std::abort();
+  if (mesh.uvs.size() != mesh.vertices.size()) return 0;
   mm::Mesh again;
   cv::Mat no_texture;
   if (!mm::DecodeGlb(mm::EncodeGlb(mesh, ""), &again, &no_texture).empty()) std::abort();

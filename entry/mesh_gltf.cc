@@ -2,11 +2,19 @@
 
 #include <tiny_gltf.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <initializer_list>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
+
+#include "base/text_file.h"
+#include "calib/camera_model.h"
 
 namespace mm {
 namespace {
@@ -27,29 +35,164 @@ int AddView(tinygltf::Model* model, const void* data, size_t size, int target) {
   return static_cast<int>(model->bufferViews.size()) - 1;
 }
 
-// Pointer to accessor element 0 and its stride, after checking it lies within its buffer.
-const unsigned char* AccessorData(const tinygltf::Model& model, int index, int type, int component,
-                                  size_t* stride, size_t* count) {
-  if (index < 0 || index >= static_cast<int>(model.accessors.size())) return nullptr;
+// Whether `count` elements of `elem` bytes, `stride` apart from byte `offset`, lie within `size`
+// bytes. No product or sum is formed that could wrap (a count of 2^62 + 1 at stride 12 wraps to
+// a small size).
+bool SpanFits(uint64_t offset, uint64_t count, uint64_t stride, uint64_t elem, uint64_t size) {
+  if (offset > size) return false;
+  if (count == 0) return true;
+  if (elem > size - offset) return false;
+  return count - 1 <= (size - offset - elem) / stride;
+}
+
+// An accessor of the primitive read as `type` x `component`: element 0 and its stride, after
+// checking the accessor, its buffer view and the view's buffer against the buffer's real size.
+struct AccessorSpan {
+  const unsigned char* data = nullptr;
+  size_t stride = 0;
+  size_t count = 0;
+};
+
+// "" and `*span`, or what is wrong, naming `what` (POSITION, indices ...) and the glTF field.
+std::string ReadAccessor(const tinygltf::Model& model, int index, const std::string& what, int type,
+                         std::initializer_list<int> components, AccessorSpan* span) {
+  if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
+    return what + ": accessor " + std::to_string(index) + " does not exist (" +
+           std::to_string(model.accessors.size()) + " accessors)";
+  }
   const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(index)];
-  if (a.type != type || a.componentType != component || a.bufferView < 0 ||
-      a.bufferView >= static_cast<int>(model.bufferViews.size())) {
-    return nullptr;
+  const std::string field = what + ": accessors[" + std::to_string(index) + "].";
+  if (a.type != type) return field + "type " + std::to_string(a.type) + " is not the expected one";
+  if (std::find(components.begin(), components.end(), a.componentType) == components.end()) {
+    return field + "componentType " + std::to_string(a.componentType) + " is not the expected one";
+  }
+  if (a.sparse.isSparse) return field + "sparse: sparse accessors are not read";
+  if (a.bufferView < 0 || static_cast<size_t>(a.bufferView) >= model.bufferViews.size()) {
+    return field + "bufferView " + std::to_string(a.bufferView) + " does not exist (" +
+           std::to_string(model.bufferViews.size()) + " buffer views)";
   }
   const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
-  if (v.buffer < 0 || v.buffer >= static_cast<int>(model.buffers.size())) return nullptr;
-  const std::vector<unsigned char>& buf = model.buffers[static_cast<size_t>(v.buffer)].data;
-  const size_t elem =
-      static_cast<size_t>(tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(component))) *
-      static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type)));
-  *stride = v.byteStride != 0 ? v.byteStride : elem;
-  *count = a.count;
-  const size_t begin = v.byteOffset + a.byteOffset;
-  if (a.count > 0 && (begin + (a.count - 1) * *stride + elem > buf.size() ||
-                      begin + (a.count - 1) * *stride + elem > v.byteOffset + v.byteLength)) {
-    return nullptr;
+  const std::string view = what + ": bufferViews[" + std::to_string(a.bufferView) + "].";
+  if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model.buffers.size()) {
+    return view + "buffer " + std::to_string(v.buffer) + " does not exist (" +
+           std::to_string(model.buffers.size()) + " buffers)";
   }
-  return buf.data() + begin;
+  const std::vector<unsigned char>& buf = model.buffers[static_cast<size_t>(v.buffer)].data;
+  if (!SpanFits(v.byteOffset, 1, 1, v.byteLength, buf.size())) {
+    return view + "byteOffset " + std::to_string(v.byteOffset) + " + byteLength " +
+           std::to_string(v.byteLength) + " overrun buffers[" + std::to_string(v.buffer) + "] of " +
+           std::to_string(buf.size()) + " bytes";
+  }
+  const size_t elem =
+      static_cast<size_t>(
+          tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(a.componentType))) *
+      static_cast<size_t>(tinygltf::GetNumComponentsInType(static_cast<uint32_t>(a.type)));
+  // glTF 2.0 3.6.2.4: byteStride is 4 to 252 and at least an element; 0 means packed.
+  const size_t stride = v.byteStride != 0 ? v.byteStride : elem;
+  if (stride < elem || stride > 252) {
+    return view + "byteStride " + std::to_string(v.byteStride) + " is not " + std::to_string(elem) +
+           " to 252 (the element's size to glTF's maximum)";
+  }
+  if (!SpanFits(a.byteOffset, a.count, stride, elem, v.byteLength)) {
+    return field + "count " + std::to_string(a.count) + " (" + std::to_string(elem) +
+           "-byte elements " + std::to_string(stride) + " apart from byteOffset " +
+           std::to_string(a.byteOffset) + ") overruns bufferViews[" + std::to_string(a.bufferView) +
+           "].byteLength " + std::to_string(v.byteLength);
+  }
+  span->data = buf.data() + v.byteOffset + a.byteOffset;
+  span->stride = stride;
+  span->count = a.count;
+  return {};
+}
+
+// The width and height a PNG or JPEG header gives, without decoding the pixels; false for
+// anything else (OpenCV would allocate the whole image a header claims before reading it).
+bool ImageSize(const unsigned char* p, size_t n, int* width, int* height) {
+  const auto be16 = [p](size_t i) { return (p[i] << 8) | p[i + 1]; };
+  const auto be32 = [p](size_t i) {
+    return (uint32_t{p[i]} << 24) | (uint32_t{p[i + 1]} << 16) | (uint32_t{p[i + 2]} << 8) |
+           uint32_t{p[i + 3]};
+  };
+  static constexpr unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (n >= 24 && std::memcmp(p, kPng, 8) == 0 && std::memcmp(p + 12, "IHDR", 4) == 0) {
+    if (be32(16) > INT32_MAX || be32(20) > INT32_MAX) return false;
+    *width = static_cast<int>(be32(16));
+    *height = static_cast<int>(be32(20));
+    return true;
+  }
+  if (n < 4 || p[0] != 0xff || p[1] != 0xd8) return false;
+  // JPEG: the markers' segments up to the first start of frame (SOF0..SOF15 but DHT, JPG, DAC).
+  for (size_t i = 2; i + 4 <= n;) {
+    if (p[i] != 0xff) return false;
+    const int marker = p[i + 1];
+    if (marker == 0xff) {
+      ++i;
+      continue;
+    }
+    const size_t length = static_cast<size_t>(be16(i + 2));
+    if (marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc) {
+      if (i + 9 > n) return false;
+      *height = be16(i + 5);
+      *width = be16(i + 7);
+      return true;
+    }
+    if (length < 2) return false;
+    i += 2 + length;
+  }
+  return false;
+}
+
+// The largest texture read: a side of kMaxImageSide, 64 Mpx in all (a 16384 x 16384 colour
+// texture would take 768 MB).
+constexpr int64_t kMaxTexturePixels = int64_t{1} << 26;
+
+// The primitive's base colour image, decoded, or nothing when it has none. Its buffer view is
+// checked as an accessor's is, its header's size before any pixel is allocated.
+std::string DecodeTexture(const tinygltf::Model& model, const tinygltf::Primitive& prim,
+                          cv::Mat* texture_bgr) {
+  if (prim.material < 0 || static_cast<size_t>(prim.material) >= model.materials.size()) return {};
+  const int tex = model.materials[static_cast<size_t>(prim.material)]
+                      .pbrMetallicRoughness.baseColorTexture.index;
+  if (tex < 0 || static_cast<size_t>(tex) >= model.textures.size()) return {};
+  const int src = model.textures[static_cast<size_t>(tex)].source;
+  if (src < 0 || static_cast<size_t>(src) >= model.images.size()) return {};
+  const tinygltf::Image& image = model.images[static_cast<size_t>(src)];
+  const std::string field = "images[" + std::to_string(src) + "].";
+  if (image.bufferView < 0 || static_cast<size_t>(image.bufferView) >= model.bufferViews.size()) {
+    return field + "bufferView " + std::to_string(image.bufferView) +
+           " does not exist (the texture must be inside the GLB)";
+  }
+  const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(image.bufferView)];
+  const std::string view = "bufferViews[" + std::to_string(image.bufferView) + "].";
+  if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model.buffers.size()) {
+    return view + "buffer " + std::to_string(v.buffer) + " does not exist";
+  }
+  const std::vector<unsigned char>& buf = model.buffers[static_cast<size_t>(v.buffer)].data;
+  if (!SpanFits(v.byteOffset, 1, 1, v.byteLength, buf.size()) ||
+      v.byteLength > static_cast<size_t>(std::numeric_limits<int>::max())) {
+    return view + "byteOffset " + std::to_string(v.byteOffset) + " + byteLength " +
+           std::to_string(v.byteLength) + " overrun buffers[" + std::to_string(v.buffer) + "] of " +
+           std::to_string(buf.size()) + " bytes";
+  }
+  const unsigned char* bytes = buf.data() + v.byteOffset;
+  int width = 0, height = 0;
+  if (!ImageSize(bytes, v.byteLength, &width, &height)) {
+    return field + "bufferView: not a PNG or JPEG image";
+  }
+  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide ||
+      int64_t{width} * height > kMaxTexturePixels) {
+    return field + "bufferView: a " + std::to_string(width) + "x" + std::to_string(height) +
+           " texture (at most " + std::to_string(kMaxImageSide) + " px a side, " +
+           std::to_string(kMaxTexturePixels) + " px in all)";
+  }
+  const cv::Mat raw(1, static_cast<int>(v.byteLength), CV_8UC1, const_cast<unsigned char*>(bytes));
+  try {
+    *texture_bgr = cv::imdecode(raw, cv::IMREAD_COLOR);
+  } catch (const cv::Exception&) {
+    *texture_bgr = cv::Mat();
+  }
+  if (texture_bgr->empty()) return field + "bufferView: the image does not decode";
+  return {};
 }
 
 }  // namespace
@@ -195,6 +338,9 @@ std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr
                         nullptr);
   tinygltf::Model model;
   std::string err, warn;
+  if (bytes.size() > kMaxGlbBytes) {
+    return "larger than " + std::to_string(kMaxGlbBytes) + " bytes";
+  }
   try {
     if (!loader.LoadBinaryFromMemory(&model, &err, &warn,
                                      reinterpret_cast<const unsigned char*>(bytes.data()),
@@ -208,82 +354,102 @@ std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr
   }
   if (model.meshes.empty() || model.meshes[0].primitives.empty()) return "no mesh in the GLB";
   const tinygltf::Primitive& prim = model.meshes[0].primitives[0];
-  if (prim.mode != TINYGLTF_MODE_TRIANGLES) return "primitive is not a triangle list";
+  if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
+    return "meshes[0].primitives[0].mode " + std::to_string(prim.mode) +
+           " is not a triangle list (4)";
+  }
   auto pos_it = prim.attributes.find("POSITION");
-  if (pos_it == prim.attributes.end()) return "no POSITION";
-  size_t stride = 0, count = 0;
-  const unsigned char* pos = AccessorData(model, pos_it->second, TINYGLTF_TYPE_VEC3,
-                                          TINYGLTF_COMPONENT_TYPE_FLOAT, &stride, &count);
-  if (pos == nullptr) return "POSITION accessor unusable";
+  if (pos_it == prim.attributes.end()) return "meshes[0].primitives[0]: no POSITION attribute";
+  AccessorSpan pos;
+  if (std::string e = ReadAccessor(model, pos_it->second, "POSITION", TINYGLTF_TYPE_VEC3,
+                                   {TINYGLTF_COMPONENT_TYPE_FLOAT}, &pos);
+      !e.empty()) {
+    return e;
+  }
   // glTF 2.0 (accessor.count >= 1): a mesh has vertices, and a triangle list whole triangles.
-  if (count == 0) return "POSITION accessor has no vertices";
-  for (size_t i = 0; i < count; ++i) {
+  if (pos.count == 0) return "POSITION accessor has no vertices";
+  mesh->vertices.reserve(pos.count);
+  for (size_t i = 0; i < pos.count; ++i) {
     float p[3];
-    std::memcpy(p, pos + i * stride, sizeof(p));
+    std::memcpy(p, pos.data + i * pos.stride, sizeof(p));
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+      return "POSITION: vertex " + std::to_string(i) + " is not finite";
+    }
     mesh->vertices.emplace_back(p[0], -p[1], -p[2]);
   }
   auto uv_it = prim.attributes.find("TEXCOORD_0");
   if (uv_it != prim.attributes.end()) {
-    size_t uv_count = 0;
-    const unsigned char* uv = AccessorData(model, uv_it->second, TINYGLTF_TYPE_VEC2,
-                                           TINYGLTF_COMPONENT_TYPE_FLOAT, &stride, &uv_count);
-    if (uv == nullptr || uv_count != count) return "TEXCOORD_0 accessor unusable";
-    for (size_t i = 0; i < uv_count; ++i) {
+    AccessorSpan uv;
+    if (std::string e = ReadAccessor(model, uv_it->second, "TEXCOORD_0", TINYGLTF_TYPE_VEC2,
+                                     {TINYGLTF_COMPONENT_TYPE_FLOAT}, &uv);
+        !e.empty()) {
+      return e;
+    }
+    if (uv.count != pos.count) {
+      return "TEXCOORD_0: accessors[" + std::to_string(uv_it->second) + "].count " +
+             std::to_string(uv.count) + " is not POSITION's " + std::to_string(pos.count);
+    }
+    mesh->uvs.reserve(uv.count);
+    for (size_t i = 0; i < uv.count; ++i) {
       float t[2];
-      std::memcpy(t, uv + i * stride, sizeof(t));
+      std::memcpy(t, uv.data + i * uv.stride, sizeof(t));
+      if (!std::isfinite(t[0]) || !std::isfinite(t[1])) {
+        return "TEXCOORD_0: coordinate " + std::to_string(i) + " is not finite";
+      }
       mesh->uvs.emplace_back(t[0], 1.0f - t[1]);
     }
   }
-  size_t index_count = 0;
-  std::vector<uint32_t> indices;
-  if (const unsigned char* idx =
-          AccessorData(model, prim.indices, TINYGLTF_TYPE_SCALAR,
-                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, &stride, &index_count)) {
-    for (size_t i = 0; i < index_count; ++i) {
-      uint32_t v;
-      std::memcpy(&v, idx + i * stride, sizeof(v));
-      indices.push_back(v);
-    }
-  } else if (const unsigned char* idx16 =
-                 AccessorData(model, prim.indices, TINYGLTF_TYPE_SCALAR,
-                              TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, &stride, &index_count)) {
-    for (size_t i = 0; i < index_count; ++i) {
-      uint16_t v;
-      std::memcpy(&v, idx16 + i * stride, sizeof(v));
-      indices.push_back(v);
-    }
-  } else {
-    return "indices accessor unusable (uint32 or uint16 expected)";
+  AccessorSpan idx;
+  if (std::string e = ReadAccessor(
+          model, prim.indices, "indices", TINYGLTF_TYPE_SCALAR,
+          {TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+           TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE},
+          &idx);
+      !e.empty()) {
+    return e;
   }
-  if (indices.empty() || indices.size() % 3 != 0) {
-    return "indices: " + std::to_string(indices.size()) +
+  const int component = model.accessors[static_cast<size_t>(prim.indices)].componentType;
+  if (idx.count == 0 || idx.count % 3 != 0) {
+    return "indices: " + std::to_string(idx.count) +
            " is not a whole number of triangles (a triangle list needs 3 per triangle)";
   }
-  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
-    if (indices[i] >= count || indices[i + 1] >= count || indices[i + 2] >= count) {
-      return "index out of range";
-    }
-    mesh->triangles.emplace_back(indices[i], indices[i + 1], indices[i + 2]);
+  if (pos.count > static_cast<size_t>(std::numeric_limits<int>::max())) {
+    return "POSITION: " + std::to_string(pos.count) + " vertices are more than a mesh indexes";
   }
-  if (prim.material >= 0 && prim.material < static_cast<int>(model.materials.size())) {
-    const int tex = model.materials[static_cast<size_t>(prim.material)]
-                        .pbrMetallicRoughness.baseColorTexture.index;
-    if (tex >= 0 && tex < static_cast<int>(model.textures.size())) {
-      const int src = model.textures[static_cast<size_t>(tex)].source;
-      if (src >= 0 && src < static_cast<int>(model.images.size())) {
-        const tinygltf::Image& image = model.images[static_cast<size_t>(src)];
-        if (image.bufferView >= 0 &&
-            image.bufferView < static_cast<int>(model.bufferViews.size())) {
-          const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(image.bufferView)];
-          const std::vector<unsigned char>& buf = model.buffers[static_cast<size_t>(v.buffer)].data;
-          if (v.byteOffset + v.byteLength <= buf.size()) {
-            const cv::Mat raw(1, static_cast<int>(v.byteLength), CV_8UC1,
-                              const_cast<unsigned char*>(buf.data() + v.byteOffset));
-            *texture_bgr = cv::imdecode(raw, cv::IMREAD_COLOR);
-          }
-        }
-      }
+  mesh->triangles.reserve(idx.count / 3);
+  const auto index_at = [&](size_t i) -> uint32_t {
+    const unsigned char* at = idx.data + i * idx.stride;
+    if (component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+      uint32_t v;
+      std::memcpy(&v, at, sizeof(v));
+      return v;
     }
+    if (component == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+      uint16_t v;
+      std::memcpy(&v, at, sizeof(v));
+      return v;
+    }
+    return *at;
+  };
+  for (size_t i = 0; i < idx.count; i += 3) {
+    const uint32_t a = index_at(i), b = index_at(i + 1), c = index_at(i + 2);
+    if (a >= pos.count || b >= pos.count || c >= pos.count) {
+      return "indices: triangle " + std::to_string(i / 3) + " indexes a vertex beyond POSITION's " +
+             std::to_string(pos.count);
+    }
+    mesh->triangles.emplace_back(static_cast<int>(a), static_cast<int>(b), static_cast<int>(c));
+  }
+  return DecodeTexture(model, prim, texture_bgr);
+}
+
+std::string ReadGlbFile(const std::filesystem::path& path, Mesh* mesh, cv::Mat* texture_bgr) {
+  *mesh = Mesh{};
+  *texture_bgr = cv::Mat();
+  std::string error;
+  const std::optional<std::string> bytes = ReadTextFile(path, kMaxGlbBytes, &error);
+  if (!bytes) return error;
+  if (std::string e = DecodeGlb(*bytes, mesh, texture_bgr); !e.empty()) {
+    return path.string() + ": " + e;
   }
   return {};
 }

@@ -9,6 +9,7 @@
 //
 // Thread-safety: pure functions; reentrant.
 
+#include <filesystem>
 #include <opencv2/core.hpp>
 #include <span>
 #include <string>
@@ -41,10 +42,22 @@ std::string EncodeGlb(const Mesh& mesh, const std::string& texture_jpeg, const G
 /// One primitive and material per part (each part has at least one triangle).
 std::string EncodeGlb(std::span<const GlbPart> parts, const GlbInfo& info = {});
 
+/// The largest GLB read: far above a spool entry's mesh (a few MB), below a board's memory.
+inline constexpr size_t kMaxGlbBytes = size_t{1} << 30;
+
 /// Reads a GLB written by EncodeGlb (or any GLB with one triangle primitive using POSITION,
 /// TEXCOORD_0 and indices, at least one vertex and a whole number of triangles) back into
-/// camera-A coordinates. `texture_bgr` receives the decoded
-/// base colour image (empty when there is none). Returns "" or what went wrong.
+/// camera-A coordinates. `texture_bgr` receives the decoded base colour image (empty when there
+/// is none). Every accessor, buffer view and buffer is checked against the buffer's real size
+/// with arithmetic that cannot wrap, values must be finite, the texture a PNG or JPEG of at most
+/// kMaxImageSide px a side; a GLB is hostile input (`monomesh render` reads any file). Returns ""
+/// or what went wrong, naming the glTF field (e.g. "POSITION: accessors[0].count ... overruns
+/// bufferViews[0].byteLength 36").
 [[nodiscard]] std::string DecodeGlb(const std::string& bytes, Mesh* mesh, cv::Mat* texture_bgr);
+
+/// DecodeGlb of a file of at most kMaxGlbBytes (a regular file: not a FIFO or a device); the
+/// message starts with the path. What `monomesh render` reads a mesh with.
+[[nodiscard]] std::string ReadGlbFile(const std::filesystem::path& path, Mesh* mesh,
+                                      cv::Mat* texture_bgr);
 
 }  // namespace mm

@@ -1,7 +1,8 @@
 // libFuzzer target for monomesh-web's request handling (the fuzz preset, scripts/fuzz.sh): any
 // bytes arrive as one connection's request at a real WebServer over a spool with one entry.
-// Whatever they are, the service answers or closes, and never serves a byte of the file
-// outside the spool and the page files (its marker aborts the run).
+// Whatever they are, the service answers or closes, never serves a byte of the file outside
+// the spool and the page files (its marker aborts the run), and its first answer, when an
+// error, carries a JSON message (docs/web.md; a HEAD's answer has no body).
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -9,9 +10,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -110,5 +113,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   ::close(fd);
   if (reply.find(kSecret) != std::string::npos) std::abort();
+  // A HEAD's answer has no body; httplib cuts a routed answer's body to a Range header's.
+  std::string lower(reinterpret_cast<const char*>(data), size);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const bool head = lower.rfind("head", 0) == 0 || lower.find("range") != std::string::npos;
+  if (!head && reply.size() > 12 && reply.compare(0, 9, "HTTP/1.1 ") == 0 &&
+      (reply[9] == '4' || reply[9] == '5')) {
+    const size_t end = reply.find("\r\n\r\n");
+    if (end == std::string::npos || reply.compare(end + 4, 10, "{\"error\":\"") != 0) std::abort();
+  }
   return 0;
 }

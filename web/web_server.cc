@@ -75,6 +75,26 @@ void SendFile(httplib::Response& res, UniqueFd fd, size_t size, const char* cont
       });
 }
 
+// The message of an error answer httplib makes by itself (the handlers above name their own).
+std::string ErrorMessage(int status, size_t max_body_bytes) {
+  switch (status) {
+    case 400:
+      return "bad request: the request line, a header or the body does not parse";
+    case 404:
+      return "no such resource for this method (docs/web.md lists the API)";
+    case 413:
+      return "the body is larger than " + std::to_string(max_body_bytes) + " bytes";
+    case 414:
+      return "the request's URI is too long";
+    case 416:
+      return "the requested range is not satisfiable";
+    case 500:
+      return "internal error";
+    default:
+      return "HTTP " + std::to_string(status);
+  }
+}
+
 // The SSE keep-alive: a comment line after this long without a message, so a client that went
 // away is noticed (the write fails) and proxies keep the stream open.
 constexpr auto kHeartbeat = 10s;
@@ -155,6 +175,16 @@ void WebServer::Routes() {
         spdlog::error("web: {} {}: {}", req.method, req.path, what);
         SendError(res, 500, "internal error");
       });
+  // Every error answer carries a JSON body with a message (docs/web.md): httplib's own (a
+  // request that does not parse, an unknown path, a body too large) come without one.
+  const size_t max_body = options_.max_body_bytes;
+  // Handled, so httplib frames it (Content-Length); it also applies a Range header to it.
+  s.set_error_handler(
+      httplib::Server::Handler([max_body](const httplib::Request&, httplib::Response& res) {
+        if (res.body.empty() && !res.has_header("Content-Type")) {
+          SendError(res, res.status, ErrorMessage(res.status, max_body));
+        }
+      }));
   s.set_logger([](const httplib::Request& req, const httplib::Response& res) {
     spdlog::debug("web: {} {} {} {}", req.remote_addr, req.method, req.path, res.status);
   });

@@ -14,12 +14,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <spdlog/spdlog.h>
 #include <atomic>
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 #include <thread>
 
 #include "tests/support/temp_dir.h"
@@ -294,6 +294,92 @@ TEST_F(WebServerTest, TriggerIsAPostWithTheToken) {
   EXPECT_EQ(res->status, 200);
   EXPECT_EQ(json::parse(res->body)["capture"], 7);
   EXPECT_EQ(daemon_.requests(), std::vector<std::string>{"trigger"});
+}
+
+// `curl -X POST -H "Authorization: Bearer ..." URL`: no body and no Content-Length. Such a
+// request has no body (RFC 9112 6.3): answered as any POST, at once, on a connection that
+// stays usable.
+TEST_F(WebServerTest, APostWithoutBodyOrLengthIsAnsweredLikeAnyPost) {
+  const auto post = [this](const std::string& path, const std::string& auth) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::string reply =
+        RawRequest(server_->port(), "POST " + path + " HTTP/1.1\r\nHost: x\r\n" + auth +
+                                        "Connection: close\r\n\r\n");
+    EXPECT_LT(std::chrono::steady_clock::now() - start, 2s) << path;
+    return reply;
+  };
+  std::string reply = post("/api/trigger", "");
+  EXPECT_EQ(StatusOf(reply), 401) << reply;
+  EXPECT_NE(reply.find("\"error\":\"a POST needs the token"), std::string::npos) << reply;
+  reply = post("/api/trigger", "Authorization: Bearer wrong\r\n");
+  EXPECT_EQ(StatusOf(reply), 401) << reply;
+  EXPECT_TRUE(daemon_.requests().empty());
+  reply = post("/api/trigger", "Authorization: Bearer s3cret-token\r\n");
+  EXPECT_EQ(StatusOf(reply), 200) << reply;
+  EXPECT_NE(reply.find("\"capture\":7"), std::string::npos) << reply;
+  reply = post("/api/walk/start", "Authorization: Bearer s3cret-token\r\n");
+  EXPECT_EQ(StatusOf(reply), 200) << reply;
+  EXPECT_EQ(daemon_.requests(), (std::vector<std::string>{"trigger", "walk start"}));
+
+  // Two bodiless POSTs on one keep-alive connection, then a GET: each answered in turn.
+  const std::string one =
+      "POST /api/trigger HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer s3cret-token\r\n\r\n";
+  reply =
+      RawRequest(server_->port(),
+                 one + one + "GET /api/entries HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  size_t answers = 0;
+  for (size_t at = reply.find("HTTP/1.1 200"); at != std::string::npos;
+       at = reply.find("HTTP/1.1 200", at + 1)) {
+    ++answers;
+  }
+  EXPECT_EQ(answers, 3u) << reply;
+}
+
+// Every error answer, the server's own included, is JSON with a message.
+TEST_F(WebServerTest, EveryErrorAnswerIsJsonWithAMessage) {
+  const auto check = [](const std::string& what, const std::string& reply, int status) {
+    EXPECT_EQ(StatusOf(reply), status) << what << ": " << reply;
+    const size_t body = reply.find("\r\n\r\n");
+    ASSERT_NE(body, std::string::npos) << what;
+    EXPECT_NE(reply.find("Content-Type: application/json"), std::string::npos) << what << reply;
+    const size_t length_at = reply.find("Content-Length: ");
+    ASSERT_NE(length_at, std::string::npos) << what << ": " << reply;
+    const size_t length = std::stoul(reply.substr(length_at + 16));
+    const json j = json::parse(reply.substr(body + 4, length), nullptr, false);
+    ASSERT_TRUE(j.is_object()) << what << ": " << reply;
+    ASSERT_TRUE(j.contains("error")) << what << ": " << reply;
+    EXPECT_FALSE(j["error"].get<std::string>().empty()) << what;
+  };
+  const int port = server_->port();
+  const std::string close = "Host: x\r\nConnection: close\r\n";
+  check("unknown path", RawRequest(port, "GET /api/nothing HTTP/1.1\r\n" + close + "\r\n"), 404);
+  check("GET of a POST", RawRequest(port, "GET /api/trigger HTTP/1.1\r\n" + close + "\r\n"), 404);
+  check("POST of a GET",
+        RawRequest(port, "POST /api/entries HTTP/1.1\r\n" + close + "Content-Length: 0\r\n\r\n"),
+        404);
+  check("unknown method", RawRequest(port, "BREW /api/entries HTTP/1.1\r\n" + close + "\r\n"), 400);
+  check("no token", RawRequest(port, "POST /api/trigger HTTP/1.1\r\n" + close + "\r\n"), 401);
+  check("bad chunk",
+        RawRequest(port, "POST /api/trigger HTTP/1.1\r\n" + close +
+                             "Transfer-Encoding: chunked\r\n\r\nzz\r\n"),
+        400);
+  check("body too large",
+        RawRequest(port,
+                   "POST /api/trigger HTTP/1.1\r\n" + close + "Content-Length: 100000000\r\n\r\n"),
+        413);
+  check("URI too long",
+        RawRequest(port, "GET /" + std::string(10000, 'u') + " HTTP/1.1\r\n" + close + "\r\n"),
+        414);
+  std::string many = "GET /api/entries HTTP/1.1\r\n" + close;
+  for (int i = 0; i < 200; ++i) many += "X-H" + std::to_string(i) + ": v\r\n";
+  check("too many headers", RawRequest(port, many + "\r\n"), 431);
+  check("no such entry",
+        RawRequest(port, "GET /api/entries/20990101T000000Z-000001 HTTP/1.1\r\n" + close + "\r\n"),
+        404);
+  check("no such static file", RawRequest(port, "GET /missing.html HTTP/1.1\r\n" + close + "\r\n"),
+        404);
+  daemon_.up_ = false;
+  check("daemon away", RawRequest(port, "GET /api/status HTTP/1.1\r\n" + close + "\r\n"), 503);
 }
 
 TEST_F(WebServerTest, WalkStartAndStopArePostsWithTheToken) {

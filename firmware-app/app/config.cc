@@ -217,6 +217,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
             "longer than " + std::to_string(sizeof(sockaddr_un{}.sun_path) - 1) +
                 " bytes (the limit of a UNIX socket address)");
   r.Get(control, "control", "group", &c.control_group);
+  c.control_group_given = control != nullptr && control->contains("group");
   r.GetNumber(control, "control", "mode", {0, 0777}, &c.control_mode);
 
   const auto* trigger = r.Table("trigger");

@@ -34,6 +34,10 @@ struct DaemonConfig {
   /// [control] group: the socket's group, so its members run `monomesh ctl` without sudo; empty
   /// leaves the daemon's own group. Resolved when the daemon binds the socket.
   std::string control_group = "monomesh";
+  /// Whether the file names [control] group. A named group that does not exist stops the daemon
+  /// (the package's config names it); the default's absence (a build tree, no package) is a
+  /// warning and the socket keeps the daemon's group.
+  bool control_group_given = false;
   int control_mode = 0660;  ///< [control] mode: the socket's permission bits (0 to 0777).
 
   /// [trigger] gpio_chip, gpio_line, active_low, bias, debounce_ms: the capture button.

@@ -313,6 +313,11 @@ TEST(DaemonConfig, ControlSocketGroupAndMode) {
       std::string(kMinimal) + "[control]\ngroup = \"\"\nmode = 0o640\n", "/x/d.toml");
   EXPECT_EQ(c.control_group, "");
   EXPECT_EQ(c.control_mode, 0640);
+  // Only a group the file names is required to exist (the daemon warns for the default).
+  EXPECT_FALSE(d.control_group_given);
+  EXPECT_TRUE(c.control_group_given);
+  EXPECT_FALSE(ParseDaemonConfig(std::string(kMinimal) + "[control]\nmode = 0o640\n", "/x/d.toml")
+                   .control_group_given);
   ExpectError(std::string(kMinimal) + "[control]\nmode = 0o1777\n", "control.mode': expected");
   ExpectError(std::string(kMinimal) + "[control]\nmode = -1\n", "control.mode");
   ExpectError(std::string(kMinimal) + "[control]\nmode = \"0660\"\n", "control.mode");

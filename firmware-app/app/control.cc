@@ -65,6 +65,16 @@ void ApplyAccess(const std::filesystem::path& path, const ControlSocketAccess& a
 
 }  // namespace
 
+bool GroupExists(const std::string& name) {
+  group entry{};
+  group* found = nullptr;
+  std::vector<char> buf(16384);
+  while (::getgrnam_r(name.c_str(), &entry, buf.data(), buf.size(), &found) == ERANGE) {
+    buf.resize(buf.size() * 2);
+  }
+  return found != nullptr;
+}
+
 UniqueFd ListenControlSocket(const std::filesystem::path& path, const ControlSocketAccess& access) {
   const sockaddr_un addr = Address(path);
   const gid_t gid = access.group.empty() ? static_cast<gid_t>(-1) : GroupId(access.group);

@@ -51,6 +51,9 @@ class ControlAccessError : public ControlError {
   using ControlError::ControlError;
 };
 
+/// Whether the system knows a group of this name (getgrnam_r).
+bool GroupExists(const std::string& name);
+
 /// Creates, binds and listens on `path` (non-blocking, close-on-exec). The socket file gets
 /// `access`'s group and mode after bind and before listen, so no client connects before they
 /// apply. Only a stale socket (a socket file nobody accepts on: connect refused, left by a

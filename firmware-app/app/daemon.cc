@@ -83,10 +83,18 @@ int Daemon::Start() {
   }
   spdlog::info("camera: {}", capture_->Describe());
 
+  ControlSocketAccess access{.group = config_.control_group,
+                             .mode = static_cast<unsigned>(config_.control_mode)};
+  if (!config_.control_group_given && !access.group.empty() && !GroupExists(access.group)) {
+    // A build tree's daemon run by hand: no package made the group (docs/exit_codes.md).
+    spdlog::warn(
+        "config: [control] group is not set and its default group '{}' does not exist (no "
+        "package installed): the control socket keeps the daemon's own group",
+        access.group);
+    access.group.clear();
+  }
   try {
-    listen_fd_ = ListenControlSocket(
-        config_.control_socket,
-        {.group = config_.control_group, .mode = static_cast<unsigned>(config_.control_mode)});
+    listen_fd_ = ListenControlSocket(config_.control_socket, access);
   } catch (const ControlAccessError& e) {
     spdlog::critical("config: {}", e.what());
     return kExitConfig;

@@ -4,8 +4,34 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <string>
+#include <vector>
 
 namespace mm::cli {
+
+/// Exit code of a command refusing an input file's content (sysexits.h EX_DATAERR; a GLB whose
+/// accessors overrun its buffers, docs/exit_codes.md).
+inline constexpr int kExitDataError = 65;
+
+/// An option that has an effect only when `holds()` after parsing (a mode, or another option's
+/// value): what CLI11's needs/excludes cannot say.
+struct OptionRule {
+  std::string option;           ///< As on the command line, e.g. "--odom-noise-m".
+  std::function<bool()> holds;  ///< Reads the parsed values.
+  std::string needed;           ///< What it needs, e.g. "--scale odometry or --scale auto".
+};
+
+/// Checks `rules` once `cmd` is parsed: a rule whose option was given but does not hold is
+/// CLI11's RequiresError ("--a requires <needed>", its exit code 107), like needs().
+inline void AddOptionRules(CLI::App* cmd, std::vector<OptionRule> rules) {
+  cmd->callback([cmd, rules = std::move(rules)] {
+    for (const OptionRule& rule : rules) {
+      if (cmd->count(rule.option) > 0 && !rule.holds()) {
+        throw CLI::RequiresError(rule.option, rule.needed);
+      }
+    }
+  });
+}
 
 /// What a registered subcommand runs once parsed; returns the process exit code.
 using Runner = std::function<int()>;

@@ -90,13 +90,17 @@ Runner AddCtlCommand(CLI::App& app) {
                   "With odom: T X Y Z [QX QY QZ QW] (seconds on [scale] odometry_clock, metres); "
                   "with walk: start | stop")
       ->expected(0, 7);
-  cmd->add_option("--socket", args->socket, "Control socket")->capture_default_str();
-  cmd->add_option("--config", args->config, "Take the socket path from this daemon config");
+  auto* socket_option =
+      cmd->add_option("--socket", args->socket, "Control socket")->capture_default_str();
+  cmd->add_option("--config", args->config, "Take the socket path from this daemon config")
+      ->excludes(socket_option);
   cmd->add_option("--wait", args->wait_s,
                   "With trigger: wait up to this many seconds for the result");
   cmd->add_option("--until", args->until,
                   "With watch: stop after the first event of this name (e.g. entry, "
                   "capture_failed; repeatable)");
+  AddOptionRules(cmd, {{"--wait", [args] { return args->command == "trigger"; }, "ctl trigger"},
+                       {"--until", [args] { return args->command == "watch"; }, "ctl watch"}});
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     std::string command = args->command;

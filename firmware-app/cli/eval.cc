@@ -11,8 +11,11 @@
 // run a walk over the sequence and compare its keyframe poses with the ground truth
 // (eval/walk_eval.h).
 
+#include <algorithm>
 #include <fstream>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "calib/calib_io.h"
 #include "cli/commands.h"
@@ -209,13 +212,17 @@ Runner AddEvalCommand(CLI::App& app) {
   cmd->add_option("--dataset", args->dataset, "TUM-format folder (rgb.txt, groundtruth.txt)")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--calib", args->calib, "Calibration (TOML)")->check(CLI::ExistingFile);
-  cmd->add_option("--spool", args->spool,
-                  "Evaluate the daemon's spool entries (report.json) instead of reconstructing")
-      ->check(CLI::ExistingDirectory);
-  cmd->add_option("--feed-log", args->feed_log,
-                  "With --spool: `monomesh feed --log` output mapping device timestamps to frames")
-      ->check(CLI::ExistingFile);
+  auto* calib =
+      cmd->add_option("--calib", args->calib, "Calibration (TOML)")->check(CLI::ExistingFile);
+  auto* spool =
+      cmd->add_option("--spool", args->spool,
+                      "Evaluate the daemon's spool entries (report.json) instead of reconstructing")
+          ->check(CLI::ExistingDirectory);
+  auto* feed_log =
+      cmd->add_option(
+             "--feed-log", args->feed_log,
+             "With --spool: `monomesh feed --log` output mapping device timestamps to frames")
+          ->check(CLI::ExistingFile);
   cmd->add_option("--list", args->list, "Image list instead of rgb.txt (e.g. keyframes_1hz.txt)");
   cmd->add_option("--step", args->step, "Pair frames i and i+N")->check(CLI::PositiveNumber);
   cmd->add_option("--json", args->json, "Write the results as JSON");
@@ -245,11 +252,16 @@ Runner AddEvalCommand(CLI::App& app) {
                   "Frames of the list 0.25-2 s before A, as the daemon keeps them, are offered "
                   "to the dense sweep as views behind A (true / false)");
   cmd->add_flag("--quiet", args->quiet, "Print only the summary");
-  cmd->add_flag("--captures", args->captures,
-                "Play the sequence through the daemon's gate and worker and press capture");
+  auto* captures =
+      cmd->add_flag("--captures", args->captures,
+                    "Play the sequence through the daemon's gate and worker and press capture");
   auto* walk = cmd->add_flag("--walk", args->walk,
                              "Run a walk (one map from many keyframes) over the sequence and "
                              "compare its keyframe poses with the ground truth");
+  captures->excludes(walk)->excludes(spool);
+  walk->excludes(spool);
+  calib->excludes(spool);
+  feed_log->needs(spool);
   cmd->add_flag("--every-frame", args->every_frame,
                 "With --walk: every listed frame is a keyframe (else the gate chooses)")
       ->needs(walk);
@@ -288,6 +300,48 @@ Runner AddEvalCommand(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--camera-pitch-deg", args->camera_pitch_deg,
                   "With --scale floor|auto: the camera's nominal pitch, down positive (deg)");
+  // Each option of the other modes is an error, not ignored: the mode each one acts in.
+  enum Mode : unsigned { kPairs = 1, kCaptures = 2, kWalk = 4, kSpool = 8 };
+  const auto mode = [args] {
+    return !args->spool.empty() ? kSpool : args->captures ? kCaptures : args->walk ? kWalk : kPairs;
+  };
+  const auto in = [mode](unsigned modes) {
+    return [mode, modes] { return (mode() & modes) != 0; };
+  };
+  const std::string pairs = "the pair evaluation (no --spool, --captures or --walk)";
+  const std::string reconstructing = "a reconstruction (--captures, --walk or the pair evaluation)";
+  std::vector<OptionRule> rules;
+  for (const char* name : {"--list", "--quiet", "--first-octave", "--max-features", "--ratio",
+                           "--contrast", "--ransac-px", "--huber-px", "--octave-layers",
+                           "--sift-resize", "--seed", "--lo-ransac", "--sift-impl"}) {
+    rules.push_back({name, in(kPairs | kCaptures | kWalk), reconstructing});
+  }
+  for (const char* name : {"--step", "--frame-between", "--frames-before-a", "--scale"}) {
+    rules.push_back({name, in(kPairs), pairs});
+  }
+  rules.push_back({"--threads", in(kPairs | kWalk), "--walk or " + pairs});
+  for (const char* name : {"--refine-points", "--mesh-mode"}) {
+    rules.push_back({name, in(kPairs | kCaptures), "--captures or " + pairs});
+  }
+  for (const char* name :
+       {"--trigger-every", "--timeout", "--tracks", "--log-gate", "--worker-latency"}) {
+    rules.push_back({name, in(kCaptures), "--captures"});
+  }
+  for (const char* name : {"--parallax-deg", "--min-parallax-deg"}) {
+    rules.push_back({name, in(kCaptures | kWalk), "--captures or --walk"});
+  }
+  const auto scale_is = [args](std::vector<std::string> sources) {
+    return [args, sources] {
+      return std::find(sources.begin(), sources.end(), args->scale_source) != sources.end();
+    };
+  };
+  for (const char* name : {"--odom-noise-m", "--odom-seed"}) {
+    rules.push_back({name, scale_is({"odometry", "auto"}), "--scale odometry or --scale auto"});
+  }
+  for (const char* name : {"--camera-height-m", "--camera-pitch-deg"}) {
+    rules.push_back({name, scale_is({"floor", "auto"}), "--scale floor or --scale auto"});
+  }
+  AddOptionRules(cmd, std::move(rules));
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     args->resize_given = cmd->count("--sift-resize") > 0;

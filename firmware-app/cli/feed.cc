@@ -121,13 +121,14 @@ Runner AddFeedCommand(CLI::App& app) {
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--fps", args->fps, "Frames per second")->capture_default_str()->check(CLI::Range(0.1, 1000.0));
   cmd->add_option("--format", args->format, "grey | yuyv")->capture_default_str();
-  cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
+  auto* once = cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
   cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
   cmd->add_flag("--hold-first", args->hold_first,
                 "Repeat the first frame (a camera standing still) until SIGUSR1, then play on");
   cmd->add_flag("--hold-last", args->hold_last,
                 "With --once: after the end, repeat the last frame (a camera standing still) until "
-                "SIGTERM");
+                "SIGTERM")
+      ->needs(once);
   cmd->add_option("--log", args->log,
                   "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for monomesh eval --feed-log)");
   return [cmd, args]() -> int {

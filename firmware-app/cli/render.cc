@@ -2,9 +2,7 @@
 //  [--preview] [--depth-out DEPTH.png]`: draws a mesh headless (EGL, render/renderer.h).
 
 #include <array>
-#include <fstream>
 #include <iostream>
-#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/calib_io.h"
@@ -24,13 +22,11 @@ struct RenderArgs {
 };
 
 int RunRender(const RenderArgs& args) {
-  std::ifstream in(args.mesh, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   Mesh mesh;
   cv::Mat texture;
-  if (const std::string err = DecodeGlb(bytes, &mesh, &texture); !err.empty()) {
-    std::cerr << "monomesh render: " << args.mesh << ": " << err << "\n";
-    return 1;
+  if (const std::string err = ReadGlbFile(args.mesh, &mesh, &texture); !err.empty()) {
+    std::cerr << "monomesh render: " << err << "\n";
+    return kExitDataError;
   }
   const BouguetCamera camera = LoadCalibration(args.camera);
   const int width = camera.width > 0 ? camera.width : texture.cols;
@@ -86,8 +82,8 @@ int RunRender(const RenderArgs& args) {
       return 1;
     }
   }
-  std::cout << "rendered " << mesh.triangles.size() << " triangles with "
-            << renderer.gl_renderer() << " to " << args.out << "\n";
+  std::cout << "rendered " << mesh.triangles.size() << " triangles with " << renderer.gl_renderer()
+            << " to " << args.out << "\n";
   return 0;
 }
 
@@ -103,16 +99,22 @@ Runner AddRenderCommand(CLI::App& app) {
                   "Calibration (TOML; undistorted: distortion is ignored) giving K and size")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--pose", args->pose,
-                  "cam_from_world as qw qx qy qz tx ty tz (world = camera A; default identity)")
-      ->expected(7);
+  auto* pose =
+      cmd->add_option("--pose", args->pose,
+                      "cam_from_world as qw qx qy qz tx ty tz (world = camera A; default identity)")
+          ->expected(7);
+  // The preview has its own views and no depth: --pose and --depth-out would be ignored.
+  auto* depth_out = cmd->add_option(
+      "--depth-out", args->depth_out,
+      "Also write the depth as a 16-bit PNG (value = z * --depth-scale, 0 = empty)");
   cmd->add_flag("--preview", args->preview,
-                "The spool's preview: the view from A beside an oblique view from above");
+                "The spool's preview: the view from A beside an oblique view from above")
+      ->excludes(pose)
+      ->excludes(depth_out);
   cmd->add_option("--out", args->out, "Output PNG")->required();
-  cmd->add_option("--depth-out", args->depth_out,
-                  "Also write the depth as a 16-bit PNG (value = z * --depth-scale, 0 = empty)");
   cmd->add_option("--depth-scale", args->depth_scale, "Depth PNG units per scene unit")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(depth_out);
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunRender(*args);
