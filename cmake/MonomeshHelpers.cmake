@@ -27,6 +27,58 @@ if(NOT TARGET mm_libraries)
   add_custom_target(mm_fuzzers)
 endif()
 
+# Precompiled headers (MM_PCH): every target made by the functions below reads the standard
+# library, Eigen, OpenCV's core/imgproc/imgcodecs and nlohmann::json from one of three shared
+# .gch files (cmake/mm_pch.h; the tests' cmake/mm_pch_test.h adds GoogleTest) instead of
+# parsing them in each unit. Three, because gcc only accepts a .gch built with the same -fPIC /
+# PIE setting: libraries (PIC), programs and tests. On by default with gcc (also the cross
+# gcc); off with clang (the asan, tsan and fuzz presets), whose .pch is refused outright on any
+# flag or macro difference instead of falling back to the header. Units built with their own
+# code-generation flags (Highway's foreach_target kernels, -ffp-contract=off) keep parsing
+# their headers themselves.
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+  set(_mm_pch_default ON)
+else()
+  set(_mm_pch_default OFF)
+endif()
+option(MM_PCH "Precompiled headers for monomesh's targets (gcc)" ${_mm_pch_default})
+
+# _mm_pch(TARGET KIND): KIND is lib, exe or test.
+function(_mm_pch target kind)
+  if(NOT MM_PCH)
+    return()
+  endif()
+  set(donor mm_pch_${kind})
+  if(NOT TARGET ${donor})
+    add_library(${donor} STATIC ${PROJECT_SOURCE_DIR}/cmake/mm_pch.cc)
+    # The consumers' flags: -Wpedantic, for one, changes the predefined macros (a .gch built
+    # without it is refused: __cpp_runtime_arrays).
+    target_compile_options(${donor} PRIVATE ${MM_WARNINGS})
+    target_link_libraries(${donor} PRIVATE Eigen3::Eigen opencv_core opencv_imgproc
+      opencv_imgcodecs nlohmann_json::nlohmann_json)
+    if(kind STREQUAL "lib")
+      set_target_properties(${donor} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+    endif()
+    if(kind STREQUAL "test")
+      target_link_libraries(${donor} PRIVATE GTest::gtest)
+      target_precompile_headers(${donor} PRIVATE ${PROJECT_SOURCE_DIR}/cmake/mm_pch_test.h)
+    else()
+      target_precompile_headers(${donor} PRIVATE ${PROJECT_SOURCE_DIR}/cmake/mm_pch.h)
+    endif()
+  endif()
+  target_precompile_headers(${target} REUSE_FROM ${donor})
+  get_target_property(sources ${target} SOURCES)
+  foreach(src IN LISTS sources)
+    get_filename_component(path ${src} ABSOLUTE)
+    if(path MATCHES "\\.cc$" AND EXISTS ${path})
+      file(STRINGS ${path} hwy REGEX "foreach_target" LIMIT_COUNT 1)
+      if(hwy)
+        set_source_files_properties(${src} PROPERTIES SKIP_PRECOMPILE_HEADERS ON)
+      endif()
+    endif()
+  endforeach()
+endfunction()
+
 # mm_add_library(NAME SOURCES ... [PUBLIC_LINK ...] [PRIVATE_LINK ...])
 # Headers are included as "<folder>/<file>.h" from the repository root.
 function(mm_add_library name)
@@ -37,6 +89,7 @@ function(mm_add_library name)
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_LINK} PRIVATE ${ARG_PRIVATE_LINK})
   set_target_properties(${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   add_dependencies(mm_libraries ${name})
+  _mm_pch(${name} lib)
 endfunction()
 
 # mm_add_executable(NAME SOURCES ... [LINK ...])
@@ -45,6 +98,7 @@ function(mm_add_executable name)
   add_executable(${name} ${ARG_SOURCES})
   target_compile_options(${name} PRIVATE ${MM_WARNINGS})
   target_link_libraries(${name} PRIVATE ${ARG_LINK})
+  _mm_pch(${name} exe)
 endfunction()
 
 # mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...])
@@ -59,6 +113,7 @@ function(mm_add_test folder name)
   target_compile_definitions(${target} PRIVATE
     MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  _mm_pch(${target} test)
   add_test(NAME ${folder}/${name} COMMAND ${target})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
