@@ -101,11 +101,13 @@ function(mm_add_executable name)
   _mm_pch(${name} exe)
 endfunction()
 
-# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...])
+# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...] [TIMEOUT S] [SLOW] [LOCK ...])
 # Registers a GoogleTest binary as the ctest test "<folder>/<name>". A test that needs data it
 # may not find exits 77 and is reported as skipped.
+# Speed labels (scripts/test.sh --fast runs label "fast"): a unit test is "fast" unless marked
+# SLOW; every other test is "slow". LOCK names RESOURCE_LOCKs (mm_test_locks below).
 function(mm_add_test folder name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LINK;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "SLOW" "TIMEOUT" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
   set(target ${folder}_${name})
   add_executable(${target} ${ARG_SOURCES})
   target_compile_options(${target} PRIVATE ${MM_WARNINGS})
@@ -127,8 +129,16 @@ function(mm_add_test folder name)
   if(ARG_LABELS)
     set(labels ${ARG_LABELS})
   endif()
+  if("unit" IN_LIST labels AND NOT ARG_SLOW)
+    list(APPEND labels fast)
+  else()
+    list(APPEND labels slow)
+  endif()
   set_tests_properties(${folder}/${name} PROPERTIES
     SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}")
+  if(ARG_LOCK)
+    mm_test_locks(${folder}/${name} ${ARG_LOCK})
+  endif()
   if(CMAKE_CROSSCOMPILING AND CMAKE_CROSSCOMPILING_EMULATOR)
     # A test under qemu-user cannot exec an aarch64 program by itself (no binfmt_misc on the
     # build machines): LibcameraSource starts its worker through the emulator too, and tests
@@ -140,6 +150,21 @@ function(mm_add_test folder name)
   if("unit" IN_LIST labels)
     add_dependencies(mm_unit_tests ${target})
   endif()
+endfunction()
+
+# mm_test_locks(TEST LOCK ...): ctest runs tests in parallel (scripts/test.sh: -j over every
+# core) except two that hold the same lock:
+#   daemon  a monomeshd end to end on a real-time camera, several threads each: two at once
+#           starve each other's gate and worker and time out on a 2-core machine
+#   timing  the test measures wall-clock intervals or waits on timers of its own
+function(mm_test_locks test)
+  get_test_property(${test} RESOURCE_LOCK locks)
+  if(NOT locks)
+    set(locks "")
+  endif()
+  list(APPEND locks ${ARGN})
+  list(REMOVE_DUPLICATES locks)
+  set_tests_properties(${test} PROPERTIES RESOURCE_LOCK "${locks}")
 endfunction()
 
 # Collects every target that `target` links, transitively.
