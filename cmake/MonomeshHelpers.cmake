@@ -32,12 +32,13 @@ endif()
 # library, Eigen, OpenCV's core/imgproc/imgcodecs and nlohmann::json from one of three shared
 # .gch files (cmake/mm_pch.h; the tests' cmake/mm_pch_test.h adds GoogleTest) instead of
 # parsing them in each unit. Three, because gcc only accepts a .gch built with the same -fPIC /
-# PIE setting: libraries (PIC), programs and tests. On by default with gcc (also the cross
-# gcc); off with clang (the asan, tsan and fuzz presets), whose .pch is refused outright on any
-# flag or macro difference instead of falling back to the header. Units built with their own
+# PIE setting: libraries (PIC), programs and tests. On by default with the host's gcc; off
+# with clang (the asan, tsan and fuzz presets), whose .pch is refused outright on any flag or
+# macro difference instead of falling back to the header, and off for cross builds until tried
+# there (-DMM_PCH=ON turns it on). Units built with their own
 # code-generation flags (Highway's foreach_target kernels, -ffp-contract=off) keep parsing
 # their headers themselves.
-if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND NOT CMAKE_CROSSCOMPILING)
   set(_mm_pch_default ON)
 else()
   set(_mm_pch_default OFF)
