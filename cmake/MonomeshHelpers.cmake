@@ -15,7 +15,6 @@ if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
     list(APPEND MM_WARNINGS -Wno-restrict)
   endif()
 endif()
-# (MM_PCH below adds -Wno-array-bounds for gcc 12 with the precompiled headers.)
 
 # Aggregate targets, so a build can ask for exactly what it needs (the cross stage of .ci/run
 # builds `mm_libraries monomeshd monomesh mm_unit_tests`, not the integration tests or benchmarks):
@@ -37,20 +36,15 @@ endif()
 # macro difference instead of falling back to the header, and off for cross builds until tried
 # there (-DMM_PCH=ON turns it on). Units built with their own
 # code-generation flags (Highway's foreach_target kernels, -ffp-contract=off) keep parsing
-# their headers themselves.
+# their headers themselves, as do the two units where gcc 12 reports its false positives inside
+# libstdc++'s std::string (-Warray-bounds, -Wstringop-overflow) only when <string> comes from
+# the .gch (SKIP_PRECOMPILE_HEADERS beside them).
 if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND NOT CMAKE_CROSSCOMPILING)
   set(_mm_pch_default ON)
 else()
   set(_mm_pch_default OFF)
 endif()
 option(MM_PCH "Precompiled headers for monomesh's targets (gcc)" ${_mm_pch_default})
-if(MM_PCH AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
-  # gcc 12 reports its false positive -Warray-bounds inside libstdc++'s std::string operator+
-  # (like the -Wrestrict one above) when the string header comes from a .gch:
-  # the system-header exemption that hides it otherwise is not applied to it there
-  # (firmware-app/app/control_protocol_test.cc, recon/zncc_bench.cc).
-  list(APPEND MM_WARNINGS -Wno-array-bounds)
-endif()
 
 # _mm_pch(TARGET KIND): KIND is lib, exe or test.
 function(_mm_pch target kind)
