@@ -65,6 +65,19 @@ print(",".join(str(float(v)) for v in fc + cc if v.strip()))
 PY
 }
 params="$(pinhole_params "$calib")"
+# timed OUT COMMAND...: runs the command and writes "WALL_S CPU_S" to OUT (CPU: user + sys of
+# the child, getrusage).
+timed() {
+  python3 - "$@" <<'PY'
+import resource, subprocess, sys, time
+start = time.monotonic()
+rc = subprocess.run(sys.argv[2:]).returncode
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
+sys.exit(rc)
+PY
+}
 
 if want eval; then
   echo "== monomesh eval (one thread)"
@@ -175,17 +188,9 @@ if want walk; then
   echo "== monomesh eval --walk --every-frame on $walk_list (one thread)"
   # Wall and CPU (user + sys, getrusage of the child) of the whole process; the JSON holds the
   # walk's own CPU (reading the images and the walk, not the evaluation after it).
-  python3 - "$work/walk_time.txt" "$build/firmware-app/monomesh" eval --walk --every-frame \
+  timed "$work/walk_time.txt" "$build/firmware-app/monomesh" eval --walk --every-frame \
     --dataset "$dataset" --calib "$calib" --list "$walk_list" --threads 1 \
-    --json "$work/walk.json" --quiet <<'PY'
-import resource, subprocess, sys, time
-start = time.monotonic()
-rc = subprocess.run(sys.argv[2:]).returncode
-wall = time.monotonic() - start
-ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
-sys.exit(rc)
-PY
+    --json "$work/walk.json" --quiet
   if [[ $has_colmap == 1 ]]; then
     echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
     d="$work/colmap_walk"
@@ -220,17 +225,9 @@ fi
 
 if want walk-video && [[ -d "$video" ]]; then
   echo "== monomesh eval --walk on $(basename "$video") (hand-held video; the tracker picks the keyframes; one thread)"
-  python3 - "$work/video_time.txt" "$build/firmware-app/monomesh" eval --walk \
+  timed "$work/video_time.txt" "$build/firmware-app/monomesh" eval --walk \
     --dataset "$video" --calib "$video/Calib_Results.m" --threads 1 \
-    --json "$work/video.json" --quiet <<'PY'
-import resource, subprocess, sys, time
-start = time.monotonic()
-rc = subprocess.run(sys.argv[2:]).returncode
-wall = time.monotonic() - start
-ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
-sys.exit(rc)
-PY
+    --json "$work/video.json" --quiet
   # The keyframes it picked, as a TUM list for COLMAP and walk_ate.py.
   python3 - "$work/video.json" "$video" > "$work/video_keyframes.txt" <<'PY'
 import json, os, sys

@@ -300,6 +300,17 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   return summary;
 }
 
+TwoViewResult WalkMap::TwoView(int a, int b, const std::vector<Match>& matches) const {
+  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
+  for (const Match& m : matches) {
+    pixels_a.push_back(Pixel(a, m.index_a));
+    pixels_b.push_back(Pixel(b, m.index_b));
+  }
+  TwoViewOptions two_view = options_.two_view;
+  two_view.seed = options_.seed + static_cast<unsigned>(b);
+  return EstimateTwoView(pixels_a, pixels_b, K_, two_view);
+}
+
 bool WalkMap::Initialize(int keyframe, WalkKeyframeSummary* summary) {
   const int first = SegmentKeyframes().front();
   WalkKeyframe& a = keyframes_[static_cast<size_t>(first)];
@@ -309,14 +320,7 @@ bool WalkMap::Initialize(int keyframe, WalkKeyframeSummary* summary) {
       MatchDescriptors(a.features.descriptors, b.features.descriptors, options_.match);
   summary->matching_s = SecondsSince(matching_start);
   summary->matches = static_cast<int>(matches.size());
-  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
-  for (const Match& m : matches) {
-    pixels_a.push_back(Pixel(first, m.index_a));
-    pixels_b.push_back(Pixel(keyframe, m.index_b));
-  }
-  TwoViewOptions two_view = options_.two_view;
-  two_view.seed = options_.seed + static_cast<unsigned>(keyframe);
-  const TwoViewResult pair = EstimateTwoView(pixels_a, pixels_b, K_, two_view);
+  const TwoViewResult pair = TwoView(first, keyframe, matches);
   if (!pair.success) {
     summary->failure = "initialization: " + pair.failure_reason;
     return false;
@@ -430,14 +434,7 @@ bool WalkMap::Bridge(int keyframe, WalkKeyframeSummary* summary) {
   if (a.features.descriptors.empty() || b.features.descriptors.empty()) return false;
   const std::vector<Match> matches =
       MatchDescriptors(a.features.descriptors, b.features.descriptors, options_.match);
-  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
-  for (const Match& m : matches) {
-    pixels_a.push_back(Pixel(newest, m.index_a));
-    pixels_b.push_back(Pixel(keyframe, m.index_b));
-  }
-  TwoViewOptions two_view = options_.two_view;
-  two_view.seed = options_.seed + static_cast<unsigned>(keyframe);
-  const TwoViewResult pair = EstimateTwoView(pixels_a, pixels_b, K_, two_view);
+  const TwoViewResult pair = TwoView(newest, keyframe, matches);
   if (!pair.success) return false;
   // The pair's unit baseline in map units: the map's depth over the pair's at the points both
   // have (in the newest keyframe's camera), their median; they must agree (MAD within 10 %).

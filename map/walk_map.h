@@ -201,6 +201,8 @@ class WalkMap {
   // `count` in all), oldest first.
   [[nodiscard]] std::vector<int> LocalKeyframes(int newest, int count) const;
   void StartSegment(int keyframe);
+  // The two-view stage (recon/two_view.h) on the matches of keyframes a and b (seeded by b).
+  [[nodiscard]] TwoViewResult TwoView(int a, int b, const std::vector<Match>& matches) const;
   bool Initialize(int keyframe, WalkKeyframeSummary* summary);
   bool Register(int keyframe, const Eigen::Isometry3d* prior, WalkKeyframeSummary* summary);
   enum class Candidates { kAll, kOtherSegments, kLoop };
