@@ -194,7 +194,7 @@ TEST(DaemonWalk, ThreeHundredKeyframesKeepThePeakRssUnder500MB) {
   daemon.Start();
   const json started = daemon.Command("walk start");
   ASSERT_TRUE(started.value("ok", false)) << started.dump();
-  const json last = WaitForWalk(daemon, started["walk"].get<uint64_t>(), 420s);
+  const json last = WaitForWalk(daemon, started["walk"].get<uint64_t>(), 600s);
   ASSERT_TRUE(last.value("ok", false)) << last.dump();
   EXPECT_EQ(last["reason"], "keyframe limit");
   EXPECT_EQ(last["keyframes"], 300);
