@@ -65,6 +65,27 @@ print(",".join(str(float(v)) for v in fc + cc if v.strip()))
 PY
 }
 params="$(pinhole_params "$calib")"
+# colmap_walk DIR DATASET LIST PARAMS: COLMAP's incremental mapper (bench/colmap_sfm.py, seeded)
+# on the images of a TUM list, every model it made converted to text, and the largest one's ATE
+# and scale drift against the dataset's ground truth (bench/walk_ate.py) printed as JSON; its
+# wall and CPU time in DIR/time.txt.
+colmap_walk() {
+  local d="$1" data="$2" list pinhole="$4" m t
+  list="$(realpath "$3")"
+  mkdir -p "$d/images" "$d/sparse" "$d/txt"
+  grep -v '^#' "$list" | while read -r _ file; do cp "$data/$file" "$d/images/"; done
+  python3 "$root/bench/colmap_sfm.py" "$d" "$pinhole" --random-seed 17 > "$d/time.txt"
+  for m in "$d"/sparse/*/; do
+    [[ -f "$m/images.bin" ]] || continue
+    t="$d/txt/$(basename "$m")"
+    mkdir -p "$t"
+    colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
+      >> "$d/log.txt" 2>&1
+  done
+  local models
+  mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
+  python3 "$root/bench/walk_ate.py" --dataset "$data" --list "$list" "${models[@]}"
+}
 # timed OUT COMMAND...: runs the command and writes "WALL_S CPU_S" to OUT (CPU: user + sys of
 # the child, getrusage).
 timed() {
@@ -193,22 +214,9 @@ if want walk; then
     --json "$work/walk.json" --quiet
   if [[ $has_colmap == 1 ]]; then
     echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
-    d="$work/colmap_walk"
-    mkdir -p "$d/images" "$d/sparse" "$d/txt"
-    grep -v '^#' "$dataset/$walk_list" | while read -r _ file; do cp "$dataset/$file" "$d/images/"; done
     # As the pair section (PINHOLE, intrinsics fixed, one thread, CPU SIFT) but with the mapper's
     # own initialisation angle (16 deg; it relaxes it when no pair passes), seeded.
-    python3 "$root/bench/colmap_sfm.py" "$d" "$params" --random-seed 17 > "$d/time.txt"
-    # Every model COLMAP made, as text; walk_ate.py evaluates the largest.
-    for m in "$d"/sparse/*/; do
-      [[ -f "$m/images.bin" ]] || continue
-      t="$d/txt/$(basename "$m")"
-      mkdir -p "$t"
-      colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
-        >> "$d/log.txt" 2>&1
-    done
-    mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
-    python3 "$root/bench/walk_ate.py" --dataset "$dataset" --list "$walk_list" "${models[@]}" \
+    colmap_walk "$work/colmap_walk" "$dataset" "$dataset/$walk_list" "$params" \
       > "$work/colmap_walk.json"
     read -r wall cpu < "$d/time.txt"
     python3 - "$work/colmap_walk.json" "$wall" "$cpu" <<'PY'
@@ -236,21 +244,8 @@ for k in json.load(open(sys.argv[1]))["keyframes"]:
 PY
   if [[ $has_colmap == 1 ]]; then
     echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
-    d="$work/colmap_video"
-    mkdir -p "$d/images" "$d/sparse" "$d/txt"
-    while read -r _ file; do cp "$video/$file" "$d/images/"; done < "$work/video_keyframes.txt"
-    python3 "$root/bench/colmap_sfm.py" "$d" "$(pinhole_params "$video/Calib_Results.m")" \
-      --random-seed 17 > "$d/time.txt"
-    for m in "$d"/sparse/*/; do
-      [[ -f "$m/images.bin" ]] || continue
-      t="$d/txt/$(basename "$m")"
-      mkdir -p "$t"
-      colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
-        >> "$d/log.txt" 2>&1
-    done
-    mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
-    python3 "$root/bench/walk_ate.py" --dataset "$video" --list "$work/video_keyframes.txt" \
-      "${models[@]}" > "$work/colmap_video.json"
+    colmap_walk "$work/colmap_video" "$video" "$work/video_keyframes.txt" \
+      "$(pinhole_params "$video/Calib_Results.m")" > "$work/colmap_video.json"
   fi
 fi
 
