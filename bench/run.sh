@@ -8,12 +8,17 @@
 #      exhaustive_matcher, mapper (init_min_tri_angle 2, intrinsics fixed), one thread, CPU SIFT;
 #   5. the walk: `monomesh eval --walk --every-frame` on the 17 TUM keyframes, and COLMAP's
 #      incremental mapper on the same 17 images (one thread, CPU SIFT, exhaustive matching,
-#      intrinsics fixed): registered keyframes, ATE after a Sim(3) (bench/walk_ate.py), CPU time.
+#      intrinsics fixed): registered keyframes, ATE after a Sim(3) (bench/walk_ate.py), CPU time;
+#   6. the walk on hand-held video (walk-video): `monomesh eval --walk` on the 500 frames of
+#      ../shared/data/redkitchen_walk_0_499 (the tracker and the gate pick the keyframes, as in
+#      the daemon), and COLMAP's incremental mapper on the keyframes it picked (as in 5):
+#      segments / models, registered keyframes, ATE and scale drift after a Sim(3), CPU time.
 # Prints both and the ratio, and writes everything as JSON. Wall and CPU (user + sys) time are
 # both reported: on a shared, loaded machine the CPU time is the fairer comparison.
 #
 # Usage: bench/run.sh [--build DIR] [--dataset DIR] [--calib FILE] [--json OUT] [--pairs N]
-#                     [--only SECTION[,SECTION...]]   (eval, benchmarks, colmap, daemon, walk)
+#                     [--only SECTION[,SECTION...]]
+#                     (eval, benchmarks, colmap, daemon, walk, walk-video)
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -22,7 +27,8 @@ dataset="$root/../shared/data/tum_fr3_long_office_household"
 calib="$root/data/tum_office/calib.toml"
 out="$root/build/bench.json"
 max_pairs=16
-only="eval,benchmarks,colmap,daemon,walk"
+only="eval,benchmarks,colmap,daemon,walk,walk-video"
+video="$root/../shared/data/redkitchen_walk_0_499"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --build) build="$2"; shift 2 ;;
@@ -37,7 +43,7 @@ done
 [[ -d "$dataset" ]] || { echo "bench: no dataset at $dataset" >&2; exit 77; }
 for section in ${only//,/ }; do
   case "$section" in
-    eval | benchmarks | colmap | daemon | walk) ;;
+    eval | benchmarks | colmap | daemon | walk | walk-video) ;;
     *) echo "bench: unknown section '$section'" >&2; exit 2 ;;
   esac
 done
@@ -48,14 +54,51 @@ has_colmap=0
 command -v colmap > /dev/null && has_colmap=1
 export QT_QPA_PLATFORM=offscreen
 # COLMAP's PINHOLE parameters (fx, fy, cx, cy) from the calibration, for both COLMAP sections.
-params="$(python3 - "$calib" <<'PY'
+# The calibration is TOML (fc = [fx, fy]) or Bouguet's Calib_Results.m (fc = [ fx ; fy ]).
+pinhole_params() {
+  python3 - "$1" <<'PY'
 import re, sys
 text = open(sys.argv[1]).read()
-fc = re.search(r"^fc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
-cc = re.search(r"^cc\s*=\s*\[([^\]]*)\]", text, re.M).group(1).split(",")
-print(",".join(v.strip() for v in fc + cc))
+fc = re.split(r"[,;]", re.search(r"^fc\s*=\s*\[([^\]]*)\]", text, re.M).group(1))
+cc = re.split(r"[,;]", re.search(r"^cc\s*=\s*\[([^\]]*)\]", text, re.M).group(1))
+print(",".join(str(float(v)) for v in fc + cc if v.strip()))
 PY
-)"
+}
+params="$(pinhole_params "$calib")"
+# colmap_walk DIR DATASET LIST PARAMS: COLMAP's incremental mapper (bench/colmap_sfm.py, seeded)
+# on the images of a TUM list, every model it made converted to text, and the largest one's ATE
+# and scale drift against the dataset's ground truth (bench/walk_ate.py) printed as JSON; its
+# wall and CPU time in DIR/time.txt.
+colmap_walk() {
+  local d="$1" data="$2" list pinhole="$4" m t
+  list="$(realpath "$3")"
+  mkdir -p "$d/images" "$d/sparse" "$d/txt"
+  grep -v '^#' "$list" | while read -r _ file; do cp "$data/$file" "$d/images/"; done
+  python3 "$root/bench/colmap_sfm.py" "$d" "$pinhole" --random-seed 17 > "$d/time.txt"
+  for m in "$d"/sparse/*/; do
+    [[ -f "$m/images.bin" ]] || continue
+    t="$d/txt/$(basename "$m")"
+    mkdir -p "$t"
+    colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
+      >> "$d/log.txt" 2>&1
+  done
+  local models
+  mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
+  python3 "$root/bench/walk_ate.py" --dataset "$data" --list "$list" "${models[@]}"
+}
+# timed OUT COMMAND...: runs the command and writes "WALL_S CPU_S" to OUT (CPU: user + sys of
+# the child, getrusage).
+timed() {
+  python3 - "$@" <<'PY'
+import resource, subprocess, sys, time
+start = time.monotonic()
+rc = subprocess.run(sys.argv[2:]).returncode
+wall = time.monotonic() - start
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
+sys.exit(rc)
+PY
+}
 
 if want eval; then
   echo "== monomesh eval (one thread)"
@@ -166,35 +209,14 @@ if want walk; then
   echo "== monomesh eval --walk --every-frame on $walk_list (one thread)"
   # Wall and CPU (user + sys, getrusage of the child) of the whole process; the JSON holds the
   # walk's own CPU (reading the images and the walk, not the evaluation after it).
-  python3 - "$work/walk_time.txt" "$build/firmware-app/monomesh" eval --walk --every-frame \
+  timed "$work/walk_time.txt" "$build/firmware-app/monomesh" eval --walk --every-frame \
     --dataset "$dataset" --calib "$calib" --list "$walk_list" --threads 1 \
-    --json "$work/walk.json" --quiet <<'PY'
-import resource, subprocess, sys, time
-start = time.monotonic()
-rc = subprocess.run(sys.argv[2:]).returncode
-wall = time.monotonic() - start
-ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-open(sys.argv[1], "w").write(f"{wall:.4f} {ru.ru_utime + ru.ru_stime:.4f}\n")
-sys.exit(rc)
-PY
+    --json "$work/walk.json" --quiet
   if [[ $has_colmap == 1 ]]; then
     echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
-    d="$work/colmap_walk"
-    mkdir -p "$d/images" "$d/sparse" "$d/txt"
-    grep -v '^#' "$dataset/$walk_list" | while read -r _ file; do cp "$dataset/$file" "$d/images/"; done
     # As the pair section (PINHOLE, intrinsics fixed, one thread, CPU SIFT) but with the mapper's
     # own initialisation angle (16 deg; it relaxes it when no pair passes), seeded.
-    python3 "$root/bench/colmap_sfm.py" "$d" "$params" --random-seed 17 > "$d/time.txt"
-    # Every model COLMAP made, as text; walk_ate.py evaluates the largest.
-    for m in "$d"/sparse/*/; do
-      [[ -f "$m/images.bin" ]] || continue
-      t="$d/txt/$(basename "$m")"
-      mkdir -p "$t"
-      colmap model_converter --input_path "$m" --output_path "$t" --output_type TXT \
-        >> "$d/log.txt" 2>&1
-    done
-    mapfile -t models < <(find "$d/txt" -mindepth 1 -maxdepth 1 -type d | sort)
-    python3 "$root/bench/walk_ate.py" --dataset "$dataset" --list "$walk_list" "${models[@]}" \
+    colmap_walk "$work/colmap_walk" "$dataset" "$dataset/$walk_list" "$params" \
       > "$work/colmap_walk.json"
     read -r wall cpu < "$d/time.txt"
     python3 - "$work/colmap_walk.json" "$wall" "$cpu" <<'PY'
@@ -206,6 +228,24 @@ print(f"COLMAP: {c['registered']}/{c['total']} registered in the largest of {c['
 PY
   else
     echo "== COLMAP not installed (apt-get install colmap; scripts/install-deps.sh bench): walk skipped"
+  fi
+fi
+
+if want walk-video && [[ -d "$video" ]]; then
+  echo "== monomesh eval --walk on $(basename "$video") (hand-held video; the tracker picks the keyframes; one thread)"
+  timed "$work/video_time.txt" "$build/firmware-app/monomesh" eval --walk \
+    --dataset "$video" --calib "$video/Calib_Results.m" --threads 1 \
+    --json "$work/video.json" --quiet
+  # The keyframes it picked, as a TUM list for COLMAP and walk_ate.py.
+  python3 - "$work/video.json" "$video" > "$work/video_keyframes.txt" <<'PY'
+import json, os, sys
+for k in json.load(open(sys.argv[1]))["keyframes"]:
+    print(f"{k['timestamp']:.6f} {os.path.relpath(k['image'], sys.argv[2])}")
+PY
+  if [[ $has_colmap == 1 ]]; then
+    echo "== COLMAP incremental mapper on the same keyframes (one thread, CPU)"
+    colmap_walk "$work/colmap_video" "$video" "$work/video_keyframes.txt" \
+      "$(pinhole_params "$video/Calib_Results.m")" > "$work/colmap_video.json"
   fi
 fi
 
@@ -279,6 +319,35 @@ if os.path.exists(f"{work}/walk.json"):
         print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
               f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
     result["walk"] = walk
+if os.path.exists(f"{work}/video.json"):
+    # The walk on hand-held video: the eval's own CPU of the walk (images read, tracked and
+    # walked), COLMAP's three commands on the keyframes it picked.
+    w = json.load(open(f"{work}/video.json"))["summary"]["walk"]
+    wall, cpu = (float(v) for v in open(f"{work}/video_time.txt").read().split())
+    video = {"monomesh": {**w, "process_wall_s": wall, "process_cpu_s": cpu}}
+    print(f"\n== Walk on hand-held video ({w['frames']} frames, {w['keyframes']} keyframes picked "
+          f"by the tracker; one thread; ATE and scale drift after Sim(3))")
+    print(f"monomesh: {w['registered']}/{w['keyframes']} registered, {w['segments']} segment(s), "
+          f"ATE {100 * w['ate_rmse_m']:.2f} cm RMSE over {w['path_length_m']:.2f} m "
+          f"({100 * w['ate_rmse_m'] / w['path_length_m']:.2f} %), scale drift "
+          f"{100 * w['scale_drift']:.1f} %; {w['cpu_total_s']:.2f} s CPU walk (keyframe median "
+          f"{1e3 * w['cpu_per_keyframe_s_median']:.0f} ms, frame median "
+          f"{1e3 * w['cpu_per_frame_s_median']:.1f} ms), process {wall:.2f} s wall / {cpu:.2f} s CPU")
+    if os.path.exists(f"{work}/colmap_video.json"):
+        c = json.load(open(f"{work}/colmap_video.json"))
+        c_wall, c_cpu = (float(v) for v in open(f"{work}/colmap_video/time.txt").read().split())
+        c.update(wall_s=c_wall, cpu_s=c_cpu)
+        video["colmap"] = c
+        ate = (f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE, scale drift "
+               f"{100 * c.get('scale_drift', 0):.1f} %") if "ate_rmse_m" in c else "no ATE"
+        print(f"COLMAP:   {c['registered']}/{c['total']} registered, {c['models']} model(s), {ate}; "
+              f"{c_cpu:.2f} s CPU, {c_wall:.2f} s wall")
+        ratios = {"cpu_walk": c_cpu / w["cpu_total_s"], "cpu_process": c_cpu / cpu,
+                  "wall_process": c_wall / wall}
+        video["ratio_colmap_over_monomesh"] = ratios
+        print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
+              f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
+    result["walk_video"] = video
 result["daemon_footprint"] = [
     {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]),
      "captures": int(r[3]), "captures_ok": int(r[4])}

@@ -7,7 +7,8 @@ timestamps, and aligns the camera centres to the ground truth by a Sim(3) (Umeya
 squares rotation, translation and scale; the rotation found here by Horn's 1987 quaternion
 method, which solves the same problem, so that no numpy is needed). Ground truth at a keyframe:
 linear interpolation of the two bracketing poses, the nearest one within 0.1 s at the ends (as
-Trajectory::WorldFromCamAt). Prints JSON.
+Trajectory::WorldFromCamAt). Scale drift as `monomesh eval --walk`: |s_last / s_first - 1| of
+the Sim(3) scales fitted to the first and to the last third of the keyframes. Prints JSON.
 
 Usage: bench/walk_ate.py --dataset DIR --list FILE MODEL_TXT_DIR...
        bench/walk_ate.py --self-test
@@ -182,6 +183,12 @@ def main():
         rmse, worst, c = ate(src, dst)
         out.update(ate_rmse_m=rmse, ate_max_m=worst, sim3_scale=c,
                    path_length_m=sum(math.dist(a, b) for a, b in zip(dst, dst[1:])))
+        # Scale drift as the eval's: the Sim(3) scales of the first and the last third.
+        third = len(src) // 3
+        if third >= 3:
+            first = align_sim3(src[:third], dst[:third])[0]
+            last = align_sim3(src[-third:], dst[-third:])[0]
+            out.update(scale_drift=abs(last / first - 1))
     json.dump(out, sys.stdout)
     print()
 

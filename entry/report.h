@@ -237,7 +237,10 @@ struct WalkReport {
     std::string image;  ///< Its file in the entry.
     int segment = 0;
     bool registered = false;
-    std::string failure;
+    std::string failure;      ///< Lost, or a new segment after lost keyframes: why.
+    int relocalized_to = -1;  ///< Relocalised against this keyframe (-1: not).
+    int merged_segment = -1;  ///< Merged that segment into its own (-1: none).
+    int loop_to = -1;         ///< Closed a loop with this keyframe (-1: none).
     int matches = 0;
     int pnp_inliers = 0;
     int new_points = 0;
@@ -258,8 +261,12 @@ struct WalkReport {
   struct Counts {
     int keyframes = 0;
     int registered = 0;
-    int segments = 0;
-    int points = 0;  ///< Of the map segment.
+    int segments = 0;  ///< With a registered keyframe (merged ones count once).
+    int relocalizations = 0;
+    int merges = 0;  ///< Segments merged into another.
+    int loop_closures = 0;
+    int lost_keyframes = 0;  ///< Neither registered nor relocalised.
+    int points = 0;          ///< Of the map segment.
     int mesh_parts = 0;
     int mesh_dense_parts = 0;
     int mesh_vertices = 0;

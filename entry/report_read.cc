@@ -280,6 +280,9 @@ std::string FromJson(const json& j, WalkReport* out) {
         Read(kj, "segment", &k.segment);
         Read(kj, "registered", &k.registered);
         Read(kj, "failure", &k.failure);
+        Read(kj, "relocalized_to", &k.relocalized_to);
+        Read(kj, "merged_segment", &k.merged_segment);
+        Read(kj, "loop_to", &k.loop_to);
         Read(kj, "matches", &k.matches);
         Read(kj, "pnp_inliers", &k.pnp_inliers);
         Read(kj, "new_points", &k.new_points);
@@ -307,6 +310,10 @@ std::string FromJson(const json& j, WalkReport* out) {
     Read(n, "keyframes", &r.counts.keyframes);
     Read(n, "registered", &r.counts.registered);
     Read(n, "segments", &r.counts.segments);
+    Read(n, "relocalizations", &r.counts.relocalizations);
+    Read(n, "merges", &r.counts.merges);
+    Read(n, "loop_closures", &r.counts.loop_closures);
+    Read(n, "lost_keyframes", &r.counts.lost_keyframes);
     Read(n, "points", &r.counts.points);
     Read(n, "mesh_parts", &r.counts.mesh_parts);
     Read(n, "mesh_dense_parts", &r.counts.mesh_dense_parts);

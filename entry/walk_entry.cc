@@ -118,6 +118,13 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     if (i < in.summaries.size()) {
       const WalkKeyframeSummary& summary = in.summaries[i];
       rk.failure = summary.failure;
+      rk.relocalized_to = summary.relocalized_to;
+      rk.merged_segment = summary.merged_segment;
+      rk.loop_to = summary.loop_to;
+      if (rk.relocalized_to >= 0) ++r.counts.relocalizations;
+      if (rk.merged_segment >= 0) ++r.counts.merges;
+      if (rk.loop_to >= 0) ++r.counts.loop_closures;
+      if (!k.registered) ++r.counts.lost_keyframes;
       rk.matches = summary.matches;
       rk.pnp_inliers = summary.pnp_inliers;
       rk.new_points = summary.new_points;
@@ -144,7 +151,8 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     r.timings_s.registration_median = MedianOf(registration);
   }
   r.counts.keyframes = static_cast<int>(keyframes.size());
-  r.counts.segments = static_cast<int>(segments.size());
+  r.counts.segments = static_cast<int>(std::count_if(
+      segments.begin(), segments.end(), [](const auto& s) { return s.second.registered > 0; }));
   const auto seg_it = segments.find(segment);
   r.counts.registered = seg_it == segments.end() ? 0 : seg_it->second.registered;
   r.success = r.counts.registered >= 2;

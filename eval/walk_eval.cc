@@ -364,6 +364,7 @@ std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
       !k.walk.registered           ? "LOST "
       : k.walk.merged_segment >= 0 ? "MERGE"
       : k.walk.relocalized_to >= 0 ? "RELOC"
+      : k.walk.bridged             ? "BRIDG"
                                    : (k.walk.failure.empty() ? "reg  " : "NEW  "),
       k.walk.matches, k.walk.matches_3d, k.walk.prior_matches, k.walk.pnp_inliers,
       k.walk.new_points, k.walk.bundle_rms_px, 100.0 * k.position_err_m, k.rpe_rot_deg,
@@ -472,6 +473,7 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
          {"relocalized_to", k.walk.relocalized_to},
          {"merged_segment", k.walk.merged_segment},
          {"prior_matches", k.walk.prior_matches},
+         {"bridged", k.walk.bridged},
          {"failure", k.walk.failure},
          {"matches", k.walk.matches},
          {"matches_3d", k.walk.matches_3d},

@@ -64,6 +64,7 @@ std::string WalkOptions::Check() const {
   if (kept_descriptors < 0) return "kept_descriptors: must be >= 0";
   if (max_lost_keyframes < 0) return "max_lost_keyframes: must be >= 0";
   if (min_merge_points < 3) return "min_merge_points: must be >= 3";
+  if (min_bridge_points < 3) return "min_bridge_points: must be >= 3";
   if (loop_min_gap_keyframes < 0) return "loop_min_gap_keyframes: must be >= 0";
   if (min_loop_inliers < 6) return "min_loop_inliers: must be >= 6";
   if (loop_candidates < 0) return "loop_candidates: must be >= 0";
@@ -243,6 +244,8 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
     }
   } else if (Register(index, segment_ == k.segment ? cam_from_segment_prior : nullptr, &summary)) {
     k.joined = true;
+  } else if (Bridge(index, &summary)) {
+    k.joined = true;
   } else {
     // Relocalisation against every earlier keyframe of every segment (the newest ones were
     // just tried).
@@ -297,6 +300,17 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
   return summary;
 }
 
+TwoViewResult WalkMap::TwoView(int a, int b, const std::vector<Match>& matches) const {
+  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
+  for (const Match& m : matches) {
+    pixels_a.push_back(Pixel(a, m.index_a));
+    pixels_b.push_back(Pixel(b, m.index_b));
+  }
+  TwoViewOptions two_view = options_.two_view;
+  two_view.seed = options_.seed + static_cast<unsigned>(b);
+  return EstimateTwoView(pixels_a, pixels_b, K_, two_view);
+}
+
 bool WalkMap::Initialize(int keyframe, WalkKeyframeSummary* summary) {
   const int first = SegmentKeyframes().front();
   WalkKeyframe& a = keyframes_[static_cast<size_t>(first)];
@@ -306,14 +320,7 @@ bool WalkMap::Initialize(int keyframe, WalkKeyframeSummary* summary) {
       MatchDescriptors(a.features.descriptors, b.features.descriptors, options_.match);
   summary->matching_s = SecondsSince(matching_start);
   summary->matches = static_cast<int>(matches.size());
-  std::vector<Eigen::Vector2d> pixels_a, pixels_b;
-  for (const Match& m : matches) {
-    pixels_a.push_back(Pixel(first, m.index_a));
-    pixels_b.push_back(Pixel(keyframe, m.index_b));
-  }
-  TwoViewOptions two_view = options_.two_view;
-  two_view.seed = options_.seed + static_cast<unsigned>(keyframe);
-  const TwoViewResult pair = EstimateTwoView(pixels_a, pixels_b, K_, two_view);
+  const TwoViewResult pair = TwoView(first, keyframe, matches);
   if (!pair.success) {
     summary->failure = "initialization: " + pair.failure_reason;
     return false;
@@ -416,6 +423,53 @@ bool WalkMap::Register(int keyframe, const Eigen::Isometry3d* prior, WalkKeyfram
     const int other = segment[segment.size() - 1 - static_cast<size_t>(j)];
     summary->new_points += TriangulateWith(keyframe, other, matches_to[static_cast<size_t>(j)]);
   }
+  return true;
+}
+
+bool WalkMap::Bridge(int keyframe, WalkKeyframeSummary* summary) {
+  const std::vector<int> segment = SegmentKeyframes();
+  const int newest = segment.back();
+  const WalkKeyframe& a = keyframes_[static_cast<size_t>(newest)];
+  const WalkKeyframe& b = keyframes_[static_cast<size_t>(keyframe)];
+  if (a.features.descriptors.empty() || b.features.descriptors.empty()) return false;
+  const std::vector<Match> matches =
+      MatchDescriptors(a.features.descriptors, b.features.descriptors, options_.match);
+  const TwoViewResult pair = TwoView(newest, keyframe, matches);
+  if (!pair.success) return false;
+  // The pair's unit baseline in map units: the map's depth over the pair's at the points both
+  // have (in the newest keyframe's camera), their median; they must agree (MAD within 10 %).
+  std::vector<double> ratios;
+  std::vector<std::pair<int, int>> seen;  // (new keypoint, map point)
+  for (size_t i = 0; i < pair.points_in_cam_a.size(); ++i) {
+    const Match& m = matches[static_cast<size_t>(pair.point_correspondence[i])];
+    const int id = a.point_of_keypoint[static_cast<size_t>(m.index_a)];
+    if (id < 0 || !points_[static_cast<size_t>(id)].valid) continue;
+    const double z_map =
+        (a.cam_from_segment * points_[static_cast<size_t>(id)].position_in_segment).z();
+    const double z_pair = pair.points_in_cam_a[i].z();
+    if (z_map <= 0 || z_pair <= 0) continue;
+    ratios.push_back(z_map / z_pair);
+    seen.emplace_back(m.index_b, id);
+  }
+  if (static_cast<int>(ratios.size()) < options_.min_bridge_points) return false;
+  std::vector<double> sorted = ratios;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double scale = sorted[sorted.size() / 2];
+  std::vector<double> deviations;
+  for (double r : ratios) deviations.push_back(std::abs(r / scale - 1.0));
+  std::nth_element(deviations.begin(),
+                   deviations.begin() + static_cast<std::ptrdiff_t>(deviations.size() / 2),
+                   deviations.end());
+  if (!(scale > 0) || deviations[deviations.size() / 2] > 0.1) return false;
+  Eigen::Isometry3d b_from_a = Eigen::Isometry3d::Identity();
+  b_from_a.linear() = pair.rotation;
+  b_from_a.translation() = scale * pair.translation;
+  summary->failure.clear();
+  summary->bridged = true;
+  summary->pnp_inliers = static_cast<int>(seen.size());
+  Accept(keyframe, b_from_a * a.cam_from_segment, segment_, seen, summary);
+  summary->new_points += TriangulateWith(keyframe, newest, matches);
   return true;
 }
 

@@ -61,6 +61,11 @@ struct WalkOptions {
   /// with the newest, `window` of them) projected under the prior each take the keypoint
   /// within this radius whose descriptor is nearest to theirs (ratio test as above).
   double prior_search_radius_px = 12.0;
+  /// Bridging: a keyframe whose PnP fails (the view moved on to what the map has few points
+  /// of, e.g. frames skipped under load) is registered by the two-view stage against the
+  /// newest keyframe (F by RANSAC, E, cheirality), its baseline scaled by the map's depth over
+  /// the pair's at the points both have: at least this many, agreeing within 10 % (MAD).
+  int min_bridge_points = 8;
   /// Relocalisation: the new keyframe matched against this many earlier keyframes, the most
   /// similar by their thumbnails (normalised cross-correlation of 40x30 blurred images).
   int relocalization_candidates = 4;
@@ -109,6 +114,7 @@ struct WalkKeyframeSummary {
   /// when registered, relocalised included.
   std::string failure;
   bool from_prior = false;         ///< Registered with the frame tracker's pose as the prior.
+  bool bridged = false;            ///< Registered by the two-view stage against the newest.
   int relocalized_to = -1;         ///< Relocalised against this keyframe (-1: not relocalised).
   int merged_segment = -1;         ///< This keyframe merged that segment into its own (-1: none).
   int loop_to = -1;                ///< Closed a loop with this keyframe (-1: none).
@@ -195,6 +201,8 @@ class WalkMap {
   // `count` in all), oldest first.
   [[nodiscard]] std::vector<int> LocalKeyframes(int newest, int count) const;
   void StartSegment(int keyframe);
+  // The two-view stage (recon/two_view.h) on the matches of keyframes a and b (seeded by b).
+  [[nodiscard]] TwoViewResult TwoView(int a, int b, const std::vector<Match>& matches) const;
   bool Initialize(int keyframe, WalkKeyframeSummary* summary);
   bool Register(int keyframe, const Eigen::Isometry3d* prior, WalkKeyframeSummary* summary);
   enum class Candidates { kAll, kOtherSegments, kLoop };
@@ -212,6 +220,8 @@ class WalkMap {
                std::vector<std::pair<int, int>>* agreeing) const;
   // Makes the point pairs (this, other) one point each: the other keeps both tracks.
   void FusePoints(const std::vector<std::pair<int, int>>& pairs);
+  // Registers by the two-view stage against the newest keyframe, scaled by the map's points.
+  bool Bridge(int keyframe, WalkKeyframeSummary* summary);
   bool TryMerge(int keyframe, WalkKeyframeSummary* summary);
   bool TryCloseLoop(int keyframe, WalkKeyframeSummary* summary);
   // Bundle adjustment of every keyframe of the segment, its two oldest fixed.

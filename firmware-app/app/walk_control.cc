@@ -53,11 +53,22 @@ json Daemon::OnWalkStop(const char* origin, const std::string& reason) {
 void Daemon::OnWalkDone() {
   for (const WalkKeyframeSummary& k : walk_->TakeKeyframes()) {
     if (!k.failure.empty()) {
-      spdlog::warn("walk {}: keyframe {} starts segment {}: {}", walks_, k.index, k.segment,
-                   k.failure);
+      spdlog::warn("walk {}: keyframe {} (segment {}): {}", walks_, k.index, k.segment, k.failure);
+    } else if (k.relocalized_to >= 0) {
+      spdlog::info(
+          "walk {}: keyframe {} relocalised against keyframe {} ({} PnP inliers, {:.3f} s)", walks_,
+          k.index, k.relocalized_to, k.pnp_inliers, k.time_s);
     } else {
       spdlog::info("walk {}: keyframe {} registered ({} PnP inliers, {} new points, {:.3f} s)",
                    walks_, k.index, k.pnp_inliers, k.new_points, k.time_s);
+    }
+    if (k.merged_segment >= 0) {
+      spdlog::info("walk {}: keyframe {} merged segment {} into segment {}", walks_, k.index,
+                   k.merged_segment, k.segment);
+    }
+    if (k.loop_to >= 0) {
+      spdlog::info("walk {}: keyframe {} closed a loop with keyframe {} (moved {:.3f} map units)",
+                   walks_, k.index, k.loop_to, k.loop_correction_m);
     }
     Emit({{"event", "walk_keyframe"},
           {"walk", walks_},
@@ -65,6 +76,9 @@ void Daemon::OnWalkDone() {
           {"segment", k.segment},
           {"registered", k.registered},
           {"failure", k.failure},
+          {"relocalized_to", k.relocalized_to},
+          {"merged_segment", k.merged_segment},
+          {"loop_to", k.loop_to},
           {"pnp_inliers", k.pnp_inliers},
           {"new_points", k.new_points},
           {"seconds", k.time_s}});
