@@ -27,6 +27,61 @@ if(NOT TARGET mm_libraries)
   add_custom_target(mm_fuzzers)
 endif()
 
+# Precompiled headers (MM_PCH): every target made by the functions below reads the standard
+# library, Eigen, OpenCV's core/imgproc/imgcodecs and nlohmann::json from one of three shared
+# .gch files (cmake/mm_pch.h; the tests' cmake/mm_pch_test.h adds GoogleTest) instead of
+# parsing them in each unit. Three, because gcc only accepts a .gch built with the same -fPIC /
+# PIE setting: libraries (PIC), programs and tests. On by default with the host's gcc; off
+# with clang (the asan, tsan and fuzz presets), whose .pch is refused outright on any flag or
+# macro difference instead of falling back to the header, and off for cross builds until tried
+# there (-DMM_PCH=ON turns it on). Units built with their own
+# code-generation flags (Highway's foreach_target kernels, -ffp-contract=off) keep parsing
+# their headers themselves, as do the two units where gcc 12 reports its false positives inside
+# libstdc++'s std::string (-Warray-bounds, -Wstringop-overflow) only when <string> comes from
+# the .gch (SKIP_PRECOMPILE_HEADERS beside them).
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND NOT CMAKE_CROSSCOMPILING)
+  set(_mm_pch_default ON)
+else()
+  set(_mm_pch_default OFF)
+endif()
+option(MM_PCH "Precompiled headers for monomesh's targets (gcc)" ${_mm_pch_default})
+
+# _mm_pch(TARGET KIND): KIND is lib, exe or test.
+function(_mm_pch target kind)
+  if(NOT MM_PCH)
+    return()
+  endif()
+  set(donor mm_pch_${kind})
+  if(NOT TARGET ${donor})
+    add_library(${donor} STATIC ${PROJECT_SOURCE_DIR}/cmake/mm_pch.cc)
+    # The consumers' flags: -Wpedantic, for one, changes the predefined macros (a .gch built
+    # without it is refused: __cpp_runtime_arrays).
+    target_compile_options(${donor} PRIVATE ${MM_WARNINGS})
+    target_link_libraries(${donor} PRIVATE Eigen3::Eigen opencv_core opencv_imgproc
+      opencv_imgcodecs nlohmann_json::nlohmann_json)
+    if(kind STREQUAL "lib")
+      set_target_properties(${donor} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+    endif()
+    if(kind STREQUAL "test")
+      target_link_libraries(${donor} PRIVATE GTest::gtest)
+      target_precompile_headers(${donor} PRIVATE ${PROJECT_SOURCE_DIR}/cmake/mm_pch_test.h)
+    else()
+      target_precompile_headers(${donor} PRIVATE ${PROJECT_SOURCE_DIR}/cmake/mm_pch.h)
+    endif()
+  endif()
+  target_precompile_headers(${target} REUSE_FROM ${donor})
+  get_target_property(sources ${target} SOURCES)
+  foreach(src IN LISTS sources)
+    get_filename_component(path ${src} ABSOLUTE)
+    if(path MATCHES "\\.cc$" AND EXISTS ${path})
+      file(STRINGS ${path} hwy REGEX "foreach_target" LIMIT_COUNT 1)
+      if(hwy)
+        set_source_files_properties(${src} PROPERTIES SKIP_PRECOMPILE_HEADERS ON)
+      endif()
+    endif()
+  endforeach()
+endfunction()
+
 # mm_add_library(NAME SOURCES ... [PUBLIC_LINK ...] [PRIVATE_LINK ...])
 # Headers are included as "<folder>/<file>.h" from the repository root.
 function(mm_add_library name)
@@ -37,6 +92,7 @@ function(mm_add_library name)
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_LINK} PRIVATE ${ARG_PRIVATE_LINK})
   set_target_properties(${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   add_dependencies(mm_libraries ${name})
+  _mm_pch(${name} lib)
 endfunction()
 
 # mm_add_executable(NAME SOURCES ... [LINK ...])
@@ -45,13 +101,16 @@ function(mm_add_executable name)
   add_executable(${name} ${ARG_SOURCES})
   target_compile_options(${name} PRIVATE ${MM_WARNINGS})
   target_link_libraries(${name} PRIVATE ${ARG_LINK})
+  _mm_pch(${name} exe)
 endfunction()
 
-# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...])
+# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...] [TIMEOUT S] [SLOW] [LOCK ...])
 # Registers a GoogleTest binary as the ctest test "<folder>/<name>". A test that needs data it
 # may not find exits 77 and is reported as skipped.
+# Speed labels (scripts/test.sh --fast runs label "fast"): a unit test is "fast" unless marked
+# SLOW; every other test is "slow". LOCK names RESOURCE_LOCKs (mm_test_locks below).
 function(mm_add_test folder name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LINK;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "SLOW" "TIMEOUT" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
   set(target ${folder}_${name})
   add_executable(${target} ${ARG_SOURCES})
   target_compile_options(${target} PRIVATE ${MM_WARNINGS})
@@ -59,6 +118,7 @@ function(mm_add_test folder name)
   target_compile_definitions(${target} PRIVATE
     MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  _mm_pch(${target} test)
   add_test(NAME ${folder}/${name} COMMAND ${target})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
@@ -72,8 +132,21 @@ function(mm_add_test folder name)
   if(ARG_LABELS)
     set(labels ${ARG_LABELS})
   endif()
+  # COST: on a first run (no Testing/Temporary/CTestCostData.txt yet) ctest starts the slow
+  # tests first, so the long serialised daemon tests overlap the unit tests instead of
+  # trailing them; later runs order by the measured times.
+  if("unit" IN_LIST labels AND NOT ARG_SLOW)
+    list(APPEND labels fast)
+    set(cost 1)
+  else()
+    list(APPEND labels slow)
+    set(cost 60)
+  endif()
   set_tests_properties(${folder}/${name} PROPERTIES
-    SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}")
+    SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}" COST ${cost})
+  if(ARG_LOCK)
+    mm_test_locks(${folder}/${name} ${ARG_LOCK})
+  endif()
   if(CMAKE_CROSSCOMPILING AND CMAKE_CROSSCOMPILING_EMULATOR)
     # A test under qemu-user cannot exec an aarch64 program by itself (no binfmt_misc on the
     # build machines): LibcameraSource starts its worker through the emulator too, and tests
@@ -85,6 +158,21 @@ function(mm_add_test folder name)
   if("unit" IN_LIST labels)
     add_dependencies(mm_unit_tests ${target})
   endif()
+endfunction()
+
+# mm_test_locks(TEST LOCK ...): ctest runs tests in parallel (scripts/test.sh: -j over every
+# core) except two that hold the same lock:
+#   daemon  a monomeshd end to end on a real-time camera, several threads each: two at once
+#           starve each other's gate and worker and time out on a 2-core machine
+#   timing  the test measures wall-clock intervals or waits on timers of its own
+function(mm_test_locks test)
+  get_test_property(${test} RESOURCE_LOCK locks)
+  if(NOT locks)
+    set(locks "")
+  endif()
+  list(APPEND locks ${ARGN})
+  list(REMOVE_DUPLICATES locks)
+  set_tests_properties(${test} PROPERTIES RESOURCE_LOCK "${locks}")
 endfunction()
 
 # Collects every target that `target` links, transitively.

@@ -28,6 +28,13 @@ fs::path Synthesize(const std::string& name) {
   return dir / "seq";
 }
 
+// The corridor of every test here, synthesised once for the binary (the tests only read it: each
+// daemon has its own folder and spool).
+const fs::path& Corridor() {
+  static const fs::path seq = Synthesize("corridor");
+  return seq;
+}
+
 // The walk's last result once walk `id` has ended (null on timeout).
 json WaitForWalk(DaemonProcess& daemon, uint64_t id, std::chrono::seconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -67,7 +74,7 @@ WalkReport ReadWalk(const fs::path& entry) {
 
 TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
-  const fs::path seq = Synthesize("corridor");
+  const fs::path seq = Corridor();
   // Scaled from the floor at the eye's height (docs/scale.md): the entry is in metres.
   DaemonProcess daemon("walk", "rate=realtime&loop=0",
                        "[scale]\nsource = \"floor\"\ncamera_height_m = 1.6\n", seq, "",
@@ -149,7 +156,7 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
 
 TEST(DaemonWalk, OperatorStopWritesTheWalkAndKillNineLeavesNoPartialEntry) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
-  const fs::path seq = Synthesize("stop");
+  const fs::path seq = Corridor();
   DaemonProcess daemon("walkstop", "rate=realtime&loop=1", "", seq, "", seq / "calib.toml");
   daemon.Start();
   EXPECT_FALSE(daemon.Command("walk stop").value("ok", true));  // Not walking.
@@ -187,7 +194,7 @@ TEST(DaemonWalk, OperatorStopWritesTheWalkAndKillNineLeavesNoPartialEntry) {
 // reaches its cap of 64 parts; measured 434 and 457 MB peak).
 TEST(DaemonWalk, ThreeHundredKeyframesKeepThePeakRssUnder500MB) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
-  const fs::path seq = Synthesize("long");
+  const fs::path seq = Corridor();
   DaemonProcess daemon("walklong", "rate=realtime&loop=1",
                        "[walk]\nparallax_deg = 1.0\nmax_keyframes = 300\n", seq, "",
                        seq / "calib.toml");
