@@ -71,13 +71,7 @@ double ReadNumber(const toml::table& table, const std::string& source, const std
   return *v;
 }
 
-std::array<double, 5> ToKc(const std::vector<double>& v) {
-  std::array<double, 5> kc{};
-  for (size_t i = 0; i < v.size() && i < 5; ++i) kc[i] = v[i];
-  return kc;
-}
-
-std::string Num(double v) {
+std::string TomlNumber(double v) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.17g", v);
   std::string s(buf);
@@ -108,7 +102,7 @@ BouguetCamera ParseCalibrationToml(const std::string& text, const std::string& s
   camera.height = size[1];
   camera.fc = {fc[0], fc[1]};
   camera.cc = {cc[0], cc[1]};
-  camera.kc = ToKc(kc);
+  camera.kc = KcFromValues(kc);
   camera.alpha_c = ReadNumber(*cam, source_name, p, "alpha_c", kCoefficient, 0.0);
 
   if (const toml::table* err = (*cam)["error"].as_table()) {
@@ -119,7 +113,7 @@ BouguetCamera ParseCalibrationToml(const std::string& text, const std::string& s
     const auto ekc = ReadNumbers(*err, source_name, pe, "kc", {4, 5}, kUncertainty, true);
     u.fc = {efc[0], efc[1]};
     u.cc = {ecc[0], ecc[1]};
-    u.kc = ToKc(ekc);
+    u.kc = KcFromValues(ekc);
     u.alpha_c = ReadNumber(*err, source_name, pe, "alpha_c", kUncertainty, 0.0);
     camera.error = u;
   }
@@ -149,7 +143,7 @@ std::string FormatCalibrationToml(const BouguetCamera& c) {
   std::ostringstream out;
   auto vec = [](std::initializer_list<double> v) {
     std::string s = "[";
-    for (double x : v) s += (s.size() > 1 ? ", " : "") + Num(x);
+    for (double x : v) s += (s.size() > 1 ? ", " : "") + TomlNumber(x);
     return s + "]";
   };
   out << "# monomesh calibration, Bouguet parameterization (see docs/calibration.md)\n"
@@ -157,14 +151,14 @@ std::string FormatCalibrationToml(const BouguetCamera& c) {
       << "image_size = [" << c.width << ", " << c.height << "]\n"
       << "fc = " << vec({c.fc.x(), c.fc.y()}) << "\n"
       << "cc = " << vec({c.cc.x(), c.cc.y()}) << "\n"
-      << "alpha_c = " << Num(c.alpha_c) << "\n"
+      << "alpha_c = " << TomlNumber(c.alpha_c) << "\n"
       << "kc = " << vec({c.kc[0], c.kc[1], c.kc[2], c.kc[3], c.kc[4]}) << "\n";
   if (c.error) {
     const auto& e = *c.error;
     out << "\n[camera.error]  # 3-sigma uncertainties\n"
         << "fc = " << vec({e.fc.x(), e.fc.y()}) << "\n"
         << "cc = " << vec({e.cc.x(), e.cc.y()}) << "\n"
-        << "alpha_c = " << Num(e.alpha_c) << "\n"
+        << "alpha_c = " << TomlNumber(e.alpha_c) << "\n"
         << "kc = " << vec({e.kc[0], e.kc[1], e.kc[2], e.kc[3], e.kc[4]}) << "\n";
   }
   return out.str();

@@ -191,14 +191,8 @@ class Reader {
   const std::string& source_;
 };
 
-std::array<double, 5> ToKc(const std::vector<double>& v) {
-  std::array<double, 5> kc{};
-  for (size_t i = 0; i < v.size() && i < 5; ++i) kc[i] = v[i];
-  return kc;
-}
-
 // Shortest text that reads back to the same double (std::to_chars), Matlab spelling for NaN/Inf.
-std::string Num(double v) {
+std::string MatlabNumber(double v) {
   if (std::isnan(v)) return "NaN";
   if (std::isinf(v)) return v > 0 ? "Inf" : "-Inf";
   char buf[64];
@@ -211,7 +205,7 @@ std::string Vec(std::initializer_list<double> values) {
   bool first = true;
   for (double v : values) {
     if (!first) s += " ; ";
-    s += Num(v);
+    s += MatlabNumber(v);
     first = false;
   }
   return s + " ]";
@@ -248,7 +242,7 @@ CalibResults ParseCalibResultsM(const std::string& text, const std::string& sour
   const auto kc = *r.Vector("kc", {1, 2, 4, 5}, true);
   cam.fc = {fc[0], fc[1]};
   cam.cc = {cc[0], cc[1]};
-  cam.kc = ToKc(kc);
+  cam.kc = KcFromValues(kc);
   cam.alpha_c = r.Scalar("alpha_c", false).value_or(0.0);
   cam.width = *r.Int("nx", 1, kMaxImageSide, true);
   cam.height = *r.Int("ny", 1, kMaxImageSide, true);
@@ -260,7 +254,7 @@ CalibResults ParseCalibResultsM(const std::string& text, const std::string& sour
     const auto ekc = *r.Vector("kc_error", {1, 2, 4, 5}, true);
     e.fc = {efc[0], efc[1]};
     e.cc = {ecc[0], ecc[1]};
-    e.kc = ToKc(ekc);
+    e.kc = KcFromValues(ekc);
     e.alpha_c = r.Scalar("alpha_c_error", false).value_or(0.0);
     cam.error = e;
   }
@@ -320,14 +314,15 @@ std::string FormatCalibResultsM(const CalibResults& res) {
        "% Written by monomesh (the toolbox's layout).\n\n\n";
   o << "%-- Focal length:\nfc = " << Vec({c.fc.x(), c.fc.y()}) << ";\n\n";
   o << "%-- Principal point:\ncc = " << Vec({c.cc.x(), c.cc.y()}) << ";\n\n";
-  o << "%-- Skew coefficient:\nalpha_c = " << Num(c.alpha_c) << ";\n\n";
+  o << "%-- Skew coefficient:\nalpha_c = " << MatlabNumber(c.alpha_c) << ";\n\n";
   o << "%-- Distortion coefficients:\nkc = " << Vec({c.kc[0], c.kc[1], c.kc[2], c.kc[3], c.kc[4]})
     << ";\n\n";
   if (c.error) {  // The toolbox always writes them; a hand-made file may not have them.
     const BouguetCamera::Uncertainty& e = *c.error;
     o << "%-- Focal length uncertainty:\nfc_error = " << Vec({e.fc.x(), e.fc.y()}) << ";\n\n";
     o << "%-- Principal point uncertainty:\ncc_error = " << Vec({e.cc.x(), e.cc.y()}) << ";\n\n";
-    o << "%-- Skew coefficient uncertainty:\nalpha_c_error = " << Num(e.alpha_c) << ";\n\n";
+    o << "%-- Skew coefficient uncertainty:\nalpha_c_error = " << MatlabNumber(e.alpha_c)
+      << ";\n\n";
     o << "%-- Distortion coefficients uncertainty:\nkc_error = "
       << Vec({e.kc[0], e.kc[1], e.kc[2], e.kc[3], e.kc[4]}) << ";\n\n";
   }

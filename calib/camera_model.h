@@ -13,6 +13,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace mm {
 
@@ -41,6 +42,14 @@ void ProjectBouguet(const T* intrinsics, const T* point_in_cam, T* pixel) {
 /// drives, and the undistortion maps of a 16384 x 16384 image still fit in memory (a
 /// calibration of 10^6 px per side made OpenCV throw from the daemon's constructor).
 inline constexpr int kMaxImageSide = 16384;
+
+/// The toolbox's kc from the values a file lists: the first five, those it leaves out 0 (a
+/// file may give fewer, e.g. kc = [k1 k2 p1 p2]).
+inline std::array<double, 5> KcFromValues(const std::vector<double>& values) {
+  std::array<double, 5> kc{};
+  for (size_t i = 0; i < values.size() && i < kc.size(); ++i) kc[i] = values[i];
+  return kc;
+}
 
 /// Intrinsics in the toolbox's parameterization, plus the image size they belong to.
 struct BouguetCamera {

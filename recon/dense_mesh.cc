@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <queue>
 #include <unordered_set>
 #include <vector>
@@ -11,12 +12,10 @@
 namespace mm {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-struct Cell {
+struct QuadCell {
   int x = 0, y = 0, size = 0;
   double priority = 0;  // How much a split is wanted; < 0 = a leaf for good.
-  bool operator<(const Cell& other) const { return priority < other.priority; }
+  bool operator<(const QuadCell& other) const { return priority < other.priority; }
 };
 
 // The cell's corners, clamped to the image.
@@ -27,7 +26,7 @@ struct Corners {
   }
 };
 
-Corners CornersOf(const Cell& c, int width, int height) {
+Corners CornersOf(const QuadCell& c, int width, int height) {
   return {std::min(c.x, width - 1), std::min(c.y, height - 1), std::min(c.x + c.size, width - 1),
           std::min(c.y + c.size, height - 1)};
 }
@@ -35,7 +34,7 @@ Corners CornersOf(const Cell& c, int width, int height) {
 // How much the cell wants a split: its largest relative departure from the bilinear
 // interpolation of its corners' inverse depths, `mixed_priority` when it holds pixels with and
 // without depth, -1 when it has no depth at all.
-double SplitPriority(const DenseDepth& depth, const Cell& cell, int width, int height,
+double SplitPriority(const DenseDepth& depth, const QuadCell& cell, int width, int height,
                      double mixed_priority, double noise) {
   const Corners k = CornersOf(cell, width, height);
   const double r00 = InverseDepthAt(depth, k.x0, k.y0), r10 = InverseDepthAt(depth, k.x1, k.y0);
@@ -96,15 +95,15 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
   // most five corners.
   const double mixed_priority = 4 * options.max_cell_deviation;
   const double noise = options.noise_planes * depth.inverse_depth_step;
-  std::priority_queue<Cell> open;
-  std::vector<Cell> leaves;
+  std::priority_queue<QuadCell> open;
+  std::vector<QuadCell> leaves;
   std::unordered_set<long> corners;
-  auto add_corners = [&](const Cell& c) {
+  auto add_corners = [&](const QuadCell& c) {
     for (const auto& [x, y] : CornersOf(c, width, height).Pixels()) {
       corners.insert(static_cast<long>(y) * width + x);
     }
   };
-  auto push = [&](Cell c) {
+  auto push = [&](QuadCell c) {
     c.priority = SplitPriority(depth, c, width, height, mixed_priority, noise);
     if (c.priority < 0) return;  // No depth: no vertices, no triangles.
     add_corners(c);
@@ -118,7 +117,7 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
     for (int x = 0; x < width - 1; x += options.max_cell_px) push({x, y, options.max_cell_px, 0});
   }
   while (!open.empty()) {
-    const Cell c = open.top();
+    const QuadCell c = open.top();
     open.pop();
     if (static_cast<int>(corners.size()) + 5 > options.vertex_budget) {
       local.budget_reached = true;
@@ -128,7 +127,7 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
     const int half = c.size / 2;
     for (int j = 0; j < 2; ++j) {
       for (int i = 0; i < 2; ++i) {
-        const Cell child{c.x + i * half, c.y + j * half, half, 0};
+        const QuadCell child{c.x + i * half, c.y + j * half, half, 0};
         if (child.x < width - 1 && child.y < height - 1) push(child);
       }
     }
@@ -139,7 +138,7 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
   std::unordered_set<long> seen;
   std::vector<Eigen::Vector3d> points;
   const Eigen::Matrix3d K_inv = K.inverse();
-  for (const Cell& c : leaves) {
+  for (const QuadCell& c : leaves) {
     for (const auto& [x, y] : CornersOf(c, width, height).Pixels()) {
       if (!seen.insert(static_cast<long>(y) * width + x).second) continue;
       const double rho = InverseDepthAt(depth, x, y);
@@ -155,7 +154,7 @@ Mesh BuildDenseMesh(const DenseDepth& depth, const Eigen::Matrix3d& K, int width
   local.delaunay_triangles = delaunay_summary.triangles;
 
   // The triangle checks, in pixels of A and inverse depth (affine over a plane's image).
-  const double tan_slant = std::tan(options.max_slant_deg * kPi / 180.0);
+  const double tan_slant = std::tan(options.max_slant_deg * std::numbers::pi / 180.0);
   const double focal = 0.5 * (K(0, 0) + K(1, 1));
   auto pixel_of = [&](const Eigen::Vector2f& uv) {
     return Eigen::Vector2d(uv.x() * width - 0.5, (1.0 - uv.y()) * height - 0.5);

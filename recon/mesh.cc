@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <unordered_map>
 
 namespace mm {
@@ -16,8 +17,6 @@ using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<int, Kernel>;
 using Tds = CGAL::Triangulation_data_structure_2<VertexBase>;
 using Delaunay = CGAL::Delaunay_triangulation_2<Kernel, Tds>;
-
-constexpr double kPi = 3.14159265358979323846;
 
 // The q-quantile of v (v is reordered).
 double Quantile(std::vector<double>* v, double q) {
@@ -41,17 +40,16 @@ double PointSpread(std::span<const Eigen::Vector3d> points) {
   return spread;
 }
 
-struct Cell {
+struct VoxelCell {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   int count = 0;
   Eigen::Vector3i index = Eigen::Vector3i::Zero();
 };
 
 // Voxel grid (the thesis): one representative point per cell holding >= min points.
-std::vector<Eigen::Vector3d> VoxelDownsample(std::span<const Eigen::Vector3d> points,
-                                             double size, const MeshOptions& options,
-                                             MeshSummary* summary) {
-  std::unordered_map<uint64_t, Cell> cells;
+std::vector<Eigen::Vector3d> VoxelDownsample(std::span<const Eigen::Vector3d> points, double size,
+                                             const MeshOptions& options, MeshSummary* summary) {
+  std::unordered_map<uint64_t, VoxelCell> cells;
   std::vector<uint64_t> order;  // First-seen order: the output is deterministic.
   for (const Eigen::Vector3d& p : points) {
     const Eigen::Vector3i idx((p / size).array().floor().cast<int>());
@@ -70,7 +68,7 @@ std::vector<Eigen::Vector3d> VoxelDownsample(std::span<const Eigen::Vector3d> po
   summary->occupied_cells = static_cast<int>(cells.size());
   std::vector<Eigen::Vector3d> out;
   for (uint64_t key : order) {
-    const Cell& cell = cells.at(key);
+    const VoxelCell& cell = cells.at(key);
     if (cell.count < options.min_points_per_cell) continue;
     if (options.voxel_vertex == VoxelVertex::kCentroid) {
       out.push_back(cell.sum / cell.count);
@@ -152,9 +150,8 @@ Mesh BuildDelaunayMesh(std::span<const Eigen::Vector3d> points_in_cam_a, const E
 
   std::vector<Eigen::Vector3d> vertices;
   if (options.voxel_size >= 0 && inside.size() >= 3) {
-    const double size = options.voxel_size > 0
-                            ? options.voxel_size
-                            : options.voxel_auto_fraction * PointSpread(inside);
+    const double size = options.voxel_size > 0 ? options.voxel_size
+                                               : options.voxel_auto_fraction * PointSpread(inside);
     if (size > 0) {
       local.voxel_size = size;
       vertices = VoxelDownsample(inside, size, options, &local);
@@ -180,8 +177,9 @@ Mesh BuildDelaunayMesh(std::span<const Eigen::Vector3d> points_in_cam_a, const E
   Delaunay dt;
   dt.insert(sites.begin(), sites.end());  // Duplicate sites collapse to one vertex.
   const double cos_grazing =
-      options.max_grazing_angle_deg > 0 ? std::cos(options.max_grazing_angle_deg * kPi / 180.0)
-                                        : -1.0;
+      options.max_grazing_angle_deg > 0
+          ? std::cos(options.max_grazing_angle_deg * std::numbers::pi / 180.0)
+          : -1.0;
   for (auto face = dt.finite_faces_begin(); face != dt.finite_faces_end(); ++face) {
     ++local.delaunay_triangles;
     const Eigen::Vector3i tri(face->vertex(0)->info(), face->vertex(1)->info(),
@@ -222,8 +220,9 @@ void ColorVerticesFromTexture(const cv::Mat& texture_bgr, Mesh* mesh) {
   for (const Eigen::Vector2f& uv : mesh->uvs) {
     const int u = std::clamp(static_cast<int>(uv.x() * static_cast<float>(texture_bgr.cols)), 0,
                              texture_bgr.cols - 1);
-    const int v = std::clamp(static_cast<int>((1.0f - uv.y()) * static_cast<float>(texture_bgr.rows)),
-                             0, texture_bgr.rows - 1);
+    const int v =
+        std::clamp(static_cast<int>((1.0f - uv.y()) * static_cast<float>(texture_bgr.rows)), 0,
+                   texture_bgr.rows - 1);
     const cv::Vec3b bgr = texture_bgr.at<cv::Vec3b>(v, u);
     mesh->colors.emplace_back(bgr[2], bgr[1], bgr[0]);
   }

@@ -2,13 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <vector>
 
 namespace mm {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::vector<int> Inliers(std::span<const Eigen::Vector3d> points, const Eigen::Vector3d& n,
                          double d, double band) {
@@ -126,7 +125,7 @@ FloorPlane FitFloorPlaneAlong(std::span<const Eigen::Vector3d> points_in_cam,
 }
 
 Eigen::Vector3d UpInCamera(double pitch_down_deg) {
-  const double p = pitch_down_deg * kPi / 180.0;
+  const double p = pitch_down_deg * std::numbers::pi / 180.0;
   return {0.0, -std::cos(p), -std::sin(p)};
 }
 

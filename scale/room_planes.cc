@@ -6,13 +6,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <vector>
 
 namespace mm {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 enum class Kind { kHorizontal, kWall };
 
@@ -176,8 +175,8 @@ RoomPlanes FitRoomPlanes(std::span<const Eigen::Vector3d> points_in_cam,
     out.why_not = "too few points for the room's planes (" + std::to_string(usable.size()) + ")";
     return out;
   }
-  const double sin_tilt = std::sin(options.max_tilt_deg * kPi / 180.0);
-  const double cos_tilt = std::cos(options.max_tilt_deg * kPi / 180.0);
+  const double sin_tilt = std::sin(options.max_tilt_deg * std::numbers::pi / 180.0);
+  const double cos_tilt = std::cos(options.max_tilt_deg * std::numbers::pi / 180.0);
   const double band = options.inlier_distance_rel;
 
   // The planes one after another, each from the points no earlier plane took.
@@ -356,7 +355,8 @@ RoomPlanes FitRoomPlanes(std::span<const Eigen::Vector3d> points_in_cam,
   out.floor.distance = offsets[floor];
   out.floor.inliers = static_cast<int>(planes[floor].points.size());
   out.floor.rms_residual = std::sqrt(floor_sq / static_cast<double>(planes[floor].points.size()));
-  out.floor.normal_angle_deg = std::acos(std::clamp(up.dot(nominal_up), -1.0, 1.0)) * 180.0 / kPi;
+  out.floor.normal_angle_deg =
+      std::acos(std::clamp(up.dot(nominal_up), -1.0, 1.0)) * 180.0 / std::numbers::pi;
   return out;
 }
 

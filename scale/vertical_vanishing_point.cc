@@ -5,14 +5,13 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <vector>
 
 namespace mm {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 struct Segment {
   Eigen::Vector2d p1, p2;
@@ -30,7 +29,7 @@ double ResidualRad(const Segment& s, const Eigen::Matrix3d& K, const Eigen::Vect
   const Eigen::Vector2d towards(line.y(), -line.x());
   const Eigen::Vector2d along = s.p2 - s.p1;
   const double norms = towards.norm() * along.norm();
-  if (!(norms > 0)) return kPi / 2;
+  if (!(norms > 0)) return std::numbers::pi / 2;
   return std::acos(std::clamp(std::abs(towards.dot(along)) / norms, 0.0, 1.0));
 }
 
@@ -65,7 +64,8 @@ Eigen::Vector3d Refit(const std::vector<Segment>& segments, const std::vector<in
 }
 
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / kPi;
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 /
+         std::numbers::pi;
 }
 
 // The direction most segments' lengths vote for (RANSAC over pairs of segments: a direction
@@ -110,7 +110,8 @@ Eigen::Vector3d DominantDirection(const std::vector<Segment>& segments, const Ei
 }  // namespace
 
 std::string VerticalVanishingOptions::Check() const {
-  if (!(max_deviation_deg > 0 && max_deviation_deg < 60)) return "max_deviation_deg: not in (0, 60)";
+  if (!(max_deviation_deg > 0 && max_deviation_deg < 60))
+    return "max_deviation_deg: not in (0, 60)";
   if (!(min_length_rel > 0 && min_length_rel < 1)) return "min_length_rel: not in (0, 1)";
   if (!(endpoint_sigma_px > 0)) return "endpoint_sigma_px: not positive";
   if (min_inliers < 3) return "min_inliers: at least 3";
@@ -131,7 +132,7 @@ VerticalVanishingPoint EstimateVerticalVanishingPoint(const cv::Mat& gray, const
     return out;
   }
   const Eigen::Vector3d up = expected_up_in_cam.normalized();
-  const double sin_max = std::sin(options.max_deviation_deg * kPi / 180.0);
+  const double sin_max = std::sin(options.max_deviation_deg * std::numbers::pi / 180.0);
   const Eigen::Matrix3d K_inv = K.inverse();
 
   std::vector<cv::Vec4f> lines;
@@ -189,7 +190,7 @@ VerticalVanishingPoint EstimateVerticalVanishingPoint(const cv::Mat& gray, const
   }
   double sum_sq = 0.0;
   for (int i : inliers) {
-    const double r = ResidualRad(segments[static_cast<size_t>(i)], K, v) * 180.0 / kPi;
+    const double r = ResidualRad(segments[static_cast<size_t>(i)], K, v) * 180.0 / std::numbers::pi;
     sum_sq += r * r;
   }
   out.rms_residual_deg = std::sqrt(sum_sq / out.inliers);
@@ -208,7 +209,7 @@ VerticalVanishingPoint EstimateVerticalVanishingPoint(const cv::Mat& gray, const
   const Eigen::Vector3d h = DominantDirection(
       others, K, Eigen::Vector3d::UnitZ(), options, rng,
       [&](const Eigen::Vector3d& d) {
-        return std::abs(d.dot(v)) <= sin_max && d.z() > std::cos(60.0 * kPi / 180.0);
+        return std::abs(d.dot(v)) <= sin_max && d.z() > std::cos(60.0 * std::numbers::pi / 180.0);
       },
       &horizontal_inliers);
   out.horizontal_inliers = static_cast<int>(horizontal_inliers.size());

@@ -13,7 +13,7 @@
 namespace mm::cli {
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
+volatile std::sig_atomic_t g_feed_stop = 0;
 volatile std::sig_atomic_t g_go = 0;
 
 int RunFeed(const std::string& device, const std::string& dataset, double fps,
@@ -33,8 +33,8 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
     std::cerr << "monomesh feed: " << e << "\n";
     return 1;
   }
-  std::signal(SIGINT, [](int) { g_stop = 1; });
-  std::signal(SIGTERM, [](int) { g_stop = 1; });
+  std::signal(SIGINT, [](int) { g_feed_stop = 1; });
+  std::signal(SIGTERM, [](int) { g_feed_stop = 1; });
   std::signal(SIGUSR1, [](int) { g_go = 1; });
   // The feed log maps the device's timestamps (v4l2loopback stamps a frame with
   // CLOCK_MONOTONIC when it is written) back to the dataset frame: `monomesh eval --spool
@@ -46,17 +46,19 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
       std::cerr << "monomesh feed: cannot write the log " << log_path << "\n";
       return 1;
     }
-    log << "# monomesh feed " << dataset << " -> " << device << ": write_start_s write_end_s (CLOCK_MONOTONIC) dataset_time_s\n";
+    log << "# monomesh feed " << dataset << " -> " << device
+        << ": write_start_s write_end_s (CLOCK_MONOTONIC) dataset_time_s\n";
     log.setf(std::ios::fixed);
     log.precision(6);
   }
   LoopbackFeeder feeder;
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / fps));
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / fps));
   auto next = Clock::now();
   int64_t written = 0;
   Frame frame;
   bool ended = false;
-  while (!g_stop && (count <= 0 || written < count)) {
+  while (!g_feed_stop && (count <= 0 || written < count)) {
     // --hold-first: the first frame again (a camera standing still) until SIGUSR1;
     // --hold-last: the last frame again after the end, until SIGTERM or SIGINT.
     const bool hold = (hold_first && written > 0 && !g_go) || ended;
@@ -119,7 +121,9 @@ Runner AddFeedCommand(CLI::App& app) {
   cmd->add_option("--dataset", args->dataset, "TUM-format folder (rgb.txt)")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--fps", args->fps, "Frames per second")->capture_default_str()->check(CLI::Range(0.1, 1000.0));
+  cmd->add_option("--fps", args->fps, "Frames per second")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 1000.0));
   cmd->add_option("--format", args->format, "grey | yuyv")->capture_default_str();
   auto* once = cmd->add_flag("--once", args->once, "Play the dataset once instead of looping");
   cmd->add_option("--count", args->count, "Stop after this many frames (0: no limit)");
@@ -130,7 +134,8 @@ Runner AddFeedCommand(CLI::App& app) {
                 "SIGTERM")
       ->needs(once);
   cmd->add_option("--log", args->log,
-                  "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for monomesh eval --feed-log)");
+                  "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for "
+                  "monomesh eval --feed-log)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count,

@@ -12,7 +12,7 @@
 namespace mm::cli {
 namespace {
 
-volatile std::sig_atomic_t g_stop = 0;
+volatile std::sig_atomic_t g_watch_stop = 0;
 
 int RunGpioWatch(const GpioButtonOptions& options, int count, double seconds) {
   GpioButton button(options);
@@ -20,13 +20,13 @@ int RunGpioWatch(const GpioButtonOptions& options, int count, double seconds) {
     std::cerr << "monomesh gpio-watch: " << e << "\n";
     return 1;
   }
-  std::signal(SIGINT, [](int) { g_stop = 1; });
-  std::signal(SIGTERM, [](int) { g_stop = 1; });
+  std::signal(SIGINT, [](int) { g_watch_stop = 1; });
+  std::signal(SIGTERM, [](int) { g_watch_stop = 1; });
   std::cout << "watching " << button.Describe() << " (Ctrl-C to stop)" << std::endl;
   int presses = 0;
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
-  while (!g_stop && (count <= 0 || presses < count)) {
+  while (!g_watch_stop && (count <= 0 || presses < count)) {
     if (seconds > 0 && std::chrono::steady_clock::now() >= deadline) break;
     pollfd p{button.fd(), POLLIN, 0};
     if (::poll(&p, 1, 100) <= 0) continue;
@@ -58,10 +58,13 @@ Runner AddGpioWatchCommand(CLI::App& app) {
   auto seconds = std::make_shared<double>(0);
   auto active_high = std::make_shared<bool>(false);
   options->report_release = true;
-  cmd->add_option("--chip", options->chip, "Chip name, number, path or label")->capture_default_str();
+  cmd->add_option("--chip", options->chip, "Chip name, number, path or label")
+      ->capture_default_str();
   cmd->add_option("--line", options->line, "Line offset or name")->required();
-  cmd->add_option("--debounce-ms", options->debounce_ms, "Debounce quiet time")->capture_default_str();
-  cmd->add_option("--bias", options->bias, "as-is | pull-up | pull-down | disable")->capture_default_str();
+  cmd->add_option("--debounce-ms", options->debounce_ms, "Debounce quiet time")
+      ->capture_default_str();
+  cmd->add_option("--bias", options->bias, "as-is | pull-up | pull-down | disable")
+      ->capture_default_str();
   cmd->add_flag("--active-high", *active_high, "The line is high when pressed");
   cmd->add_option("--count", *count, "Exit after this many presses (0: no limit)");
   cmd->add_option("--seconds", *seconds, "Exit after this long (0: no limit)");
