@@ -1,6 +1,10 @@
-// 200 trigger cycles in a row, the replay camera as fast as possible: no crash, no leak (RSS
-// after the run within 2 % of RSS after the first 50 cycles), every entry complete.
+// 200 trigger cycles in a row, the replay camera as fast as possible: no crash, no leak (the
+// daemon's RSS floor over the last 50 cycles within 3 % of its floor over cycles 26-75), every
+// entry complete.
+#include <algorithm>
+#include <limits>
 #include <map>
+#include <vector>
 
 #include "tests/integration/daemon_process.h"
 
@@ -29,7 +33,12 @@ TEST(DaemonStress, TwoHundredTriggerCycles) {
                        "max_entries = 20\n");
   daemon.Start();
   int ok = 0, ok_last_100 = 0;
-  long rss_after_50 = 0;
+  // RSS every 5 cycles. A sample taken while a capture is in flight holds its working set
+  // (5 % above the floor with three accuracy tests beside it; one suite run saw a sample 17 %
+  // above the one at cycle 50), so the leak check compares floors: the least RSS of cycles
+  // 26-75 against that of the last 50.
+  std::vector<long> rss_kib;
+  std::string rss_trace;
   std::map<std::string, int> failures;  // Reason (without its figures) -> count.
   for (int i = 0; i < cycles; ++i) {
     const json result = daemon.TriggerAndWait(60s);
@@ -41,12 +50,25 @@ TEST(DaemonStress, TwoHundredTriggerCycles) {
       const std::string error = result.value("error", "");
       ++failures[error.substr(0, error.find(" ("))];
     }
-    if (i == 49) rss_after_50 = RssKiB(daemon.pid());
+    if ((i + 1) % 5 == 0) {
+      rss_kib.push_back(RssKiB(daemon.pid()));
+      rss_trace += " " + std::to_string(rss_kib.back());
+    }
   }
-  const long rss_end = RssKiB(daemon.pid());
+  const auto floor_of = [&](int first_cycle, int last_cycle) {  // 1-based, inclusive
+    long floor = std::numeric_limits<long>::max();
+    for (size_t j = 0; j < rss_kib.size(); ++j) {
+      const int cycle = static_cast<int>(j + 1) * 5;
+      if (cycle >= first_cycle && cycle <= last_cycle) floor = std::min(floor, rss_kib[j]);
+    }
+    return floor;
+  };
+  const long floor_early = floor_of(26, 75);
+  const long floor_late = floor_of(cycles - 49, cycles);
   std::cout << "[ figures  ] " << cycles << " cycles, " << ok << " meshes (" << ok_last_100
-            << " in the last 100); RSS after 50: " << rss_after_50 << " KiB, after " << cycles
-            << ": " << rss_end << " KiB\n";
+            << " in the last 100); RSS floor over cycles 26-75: " << floor_early
+            << " KiB, over the last 50: " << floor_late << " KiB; every 5 cycles:" << rss_trace
+            << "\n";
   for (const auto& [reason, count] : failures) {
     std::cout << "[ figures  ] failed " << count << "x: " << reason << "\n";
   }
@@ -60,10 +82,11 @@ TEST(DaemonStress, TwoHundredTriggerCycles) {
   if (cycles >= 100) {
     EXPECT_GE(ok_last_100, 80);
   }
-  // A leak shows as growth over the last 150 cycles: measured 200 888 -> 200 892 KiB (4 KiB).
-  // 2 % (4 MB) catches 27 KiB a cycle, less than the 10 % over 450 cycles (45 KiB) it replaces.
-  if (cycles >= 100) {
-    EXPECT_LE(rss_end, rss_after_50 * 102 / 100);
+  // A leak raises the floor. Measured with three accuracy tests beside it: 195 144 -> 197 324
+  // KiB (+1.1 %) over the 125 cycles between the two windows; 3 % (6 MB) catches about 30 KiB a
+  // cycle, as the 10 % of a point sample over 450 cycles did.
+  if (cycles >= 150) {
+    EXPECT_LE(floor_late, floor_early * 103 / 100);
   }
   const auto entries = VisibleEntries(daemon.spool());
   EXPECT_EQ(entries.size(), std::min<size_t>(20, static_cast<size_t>(ok)));
