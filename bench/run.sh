@@ -218,7 +218,7 @@ if want walk; then
     # own initialisation angle (16 deg; it relaxes it when no pair passes), seeded.
     colmap_walk "$work/colmap_walk" "$dataset" "$dataset/$walk_list" "$params" \
       > "$work/colmap_walk.json"
-    read -r wall cpu < "$d/time.txt"
+    read -r wall cpu < "$work/colmap_walk/time.txt"
     python3 - "$work/colmap_walk.json" "$wall" "$cpu" <<'PY'
 import json, sys
 c = json.load(open(sys.argv[1]))
@@ -252,6 +252,21 @@ fi
 python3 - "$work" "$out" "$colmap_ok" <<'PY'
 import json, os, statistics, sys
 work, out, colmap_ok = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
+
+
+def colmap_beside(stem, walk_cpu_s, wall, cpu):
+    """COLMAP's walk result (work/STEM.json) with its wall and CPU time (work/STEM/time.txt),
+    and its time over monomesh's: the walk's own CPU, the process's CPU and wall."""
+    c = json.load(open(f"{work}/{stem}.json"))
+    c_wall, c_cpu = (float(v) for v in open(f"{work}/{stem}/time.txt").read().split())
+    c.update(wall_s=c_wall, cpu_s=c_cpu)
+    return c, {"cpu_walk": c_cpu / walk_cpu_s, "cpu_process": c_cpu / cpu,
+               "wall_process": c_wall / wall}
+
+
+def print_ratios(ratios):
+    print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
+          f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
 result = {}
 s = None
 if os.path.exists(f"{work}/monomesh.json"):
@@ -306,18 +321,15 @@ if os.path.exists(f"{work}/walk.json"):
           f"({1e3 * w['cpu_total_s'] / n:.0f} ms per keyframe, median "
           f"{1e3 * w['cpu_per_keyframe_s_median']:.0f} ms), process {wall:.2f} s wall / {cpu:.2f} s CPU")
     if os.path.exists(f"{work}/colmap_walk.json"):
-        c = json.load(open(f"{work}/colmap_walk.json"))
-        c_wall, c_cpu = (float(v) for v in open(f"{work}/colmap_walk/time.txt").read().split())
-        c.update(wall_s=c_wall, cpu_s=c_cpu, cpu_per_keyframe_s_mean=c_cpu / c["total"])
+        c, ratios = colmap_beside("colmap_walk", w["cpu_total_s"], wall, cpu)
+        c.update(cpu_per_keyframe_s_mean=c["cpu_s"] / c["total"])
         walk["colmap"] = c
         ate = f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE" if "ate_rmse_m" in c else "no ATE"
         print(f"COLMAP:   {c['registered']}/{c['total']} registered, {c['models']} model(s), {ate}; "
-              f"{c_cpu:.2f} s CPU ({c_cpu / c['total']:.2f} s per keyframe), {c_wall:.2f} s wall")
-        ratios = {"cpu_walk": c_cpu / w["cpu_total_s"], "cpu_process": c_cpu / cpu,
-                  "wall_process": c_wall / wall}
+              f"{c['cpu_s']:.2f} s CPU ({c['cpu_s'] / c['total']:.2f} s per keyframe), "
+              f"{c['wall_s']:.2f} s wall")
         walk["ratio_colmap_over_monomesh"] = ratios
-        print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
-              f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
+        print_ratios(ratios)
     result["walk"] = walk
 if os.path.exists(f"{work}/video.json"):
     # The walk on hand-held video: the eval's own CPU of the walk (images read, tracked and
@@ -334,19 +346,14 @@ if os.path.exists(f"{work}/video.json"):
           f"{1e3 * w['cpu_per_keyframe_s_median']:.0f} ms, frame median "
           f"{1e3 * w['cpu_per_frame_s_median']:.1f} ms), process {wall:.2f} s wall / {cpu:.2f} s CPU")
     if os.path.exists(f"{work}/colmap_video.json"):
-        c = json.load(open(f"{work}/colmap_video.json"))
-        c_wall, c_cpu = (float(v) for v in open(f"{work}/colmap_video/time.txt").read().split())
-        c.update(wall_s=c_wall, cpu_s=c_cpu)
+        c, ratios = colmap_beside("colmap_video", w["cpu_total_s"], wall, cpu)
         video["colmap"] = c
         ate = (f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE, scale drift "
                f"{100 * c.get('scale_drift', 0):.1f} %") if "ate_rmse_m" in c else "no ATE"
         print(f"COLMAP:   {c['registered']}/{c['total']} registered, {c['models']} model(s), {ate}; "
-              f"{c_cpu:.2f} s CPU, {c_wall:.2f} s wall")
-        ratios = {"cpu_walk": c_cpu / w["cpu_total_s"], "cpu_process": c_cpu / cpu,
-                  "wall_process": c_wall / wall}
+              f"{c['cpu_s']:.2f} s CPU, {c['wall_s']:.2f} s wall")
         video["ratio_colmap_over_monomesh"] = ratios
-        print(f"ratio COLMAP / monomesh: CPU {ratios['cpu_walk']:.1f}x (walk), "
-              f"CPU {ratios['cpu_process']:.1f}x (process), wall {ratios['wall_process']:.1f}x (process)")
+        print_ratios(ratios)
     result["walk_video"] = video
 result["daemon_footprint"] = [
     {"size": r[0], "time_to_ready_s": float(r[1]), "peak_rss_kib": int(r[2]),
