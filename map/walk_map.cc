@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "base/stats.h"
 #include "map/pose_graph.h"
 #include "recon/epipolar.h"
 #include "recon/view_pose.h"
@@ -452,16 +453,10 @@ bool WalkMap::Bridge(int keyframe, WalkKeyframeSummary* summary) {
     seen.emplace_back(m.index_b, id);
   }
   if (static_cast<int>(ratios.size()) < options_.min_bridge_points) return false;
-  std::vector<double> sorted = ratios;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
-                   sorted.end());
-  const double scale = sorted[sorted.size() / 2];
+  const double scale = MedianOf(ratios);
   std::vector<double> deviations;
   for (double r : ratios) deviations.push_back(std::abs(r / scale - 1.0));
-  std::nth_element(deviations.begin(),
-                   deviations.begin() + static_cast<std::ptrdiff_t>(deviations.size() / 2),
-                   deviations.end());
-  if (!(scale > 0) || deviations[deviations.size() / 2] > 0.1) return false;
+  if (!(scale > 0) || MedianOf(deviations) > 0.1) return false;
   Eigen::Isometry3d b_from_a = Eigen::Isometry3d::Identity();
   b_from_a.linear() = pair.rotation;
   b_from_a.translation() = scale * pair.translation;

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/video/tracking.hpp>
+#include <utility>
 
+#include "base/stats.h"
 #include "recon/view_pose.h"
 
 namespace mm {
@@ -76,9 +78,7 @@ double WalkTracker::MedianTriangulationAngleDeg(const Eigen::Isometry3d& cam_fro
     if (norms > 0) angles.push_back(std::acos(std::clamp(a.dot(b) / norms, -1.0, 1.0)));
   }
   if (angles.empty()) return 0.0;
-  const auto middle = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
-  std::nth_element(angles.begin(), middle, angles.end());
-  return *middle * 180.0 / M_PI;
+  return MedianOf(std::move(angles)) * 180.0 / M_PI;
 }
 
 void WalkTracker::Track(const cv::Mat& gray, WalkFrameStep* step) {
