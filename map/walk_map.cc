@@ -8,6 +8,7 @@
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <set>
+#include <utility>
 
 #include "base/stats.h"
 #include "map/pose_graph.h"
@@ -456,7 +457,7 @@ bool WalkMap::Bridge(int keyframe, WalkKeyframeSummary* summary) {
   const double scale = MedianOf(ratios);
   std::vector<double> deviations;
   for (double r : ratios) deviations.push_back(std::abs(r / scale - 1.0));
-  if (!(scale > 0) || MedianOf(deviations) > 0.1) return false;
+  if (!(scale > 0) || MedianOf(std::move(deviations)) > 0.1) return false;
   Eigen::Isometry3d b_from_a = Eigen::Isometry3d::Identity();
   b_from_a.linear() = pair.rotation;
   b_from_a.translation() = scale * pair.translation;
