@@ -1,6 +1,8 @@
 // `monomesh feed`: plays a dataset into a v4l2loopback device, so any V4L2 program (the daemon
 // included) sees the dataset as a real camera.
 
+#include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <fstream>
 #include <iostream>
@@ -13,12 +15,15 @@
 namespace mm::cli {
 namespace {
 
+using namespace std::chrono_literals;
+
 volatile std::sig_atomic_t g_feed_stop = 0;
 volatile std::sig_atomic_t g_go = 0;
+volatile std::sig_atomic_t g_steps = 0;  // SIGUSR2s received (--step).
 
 int RunFeed(const std::string& device, const std::string& dataset, double fps,
             const std::string& format_name, bool loop, int64_t count, bool hold_first,
-            bool hold_last, const std::string& log_path) {
+            bool hold_last, bool step, const std::string& log_path) {
   using Clock = std::chrono::steady_clock;
   const auto format = ParsePixelFormat(format_name);
   if (!format || (*format != PixelFormat::kGrey && *format != PixelFormat::kYuyv)) {
@@ -36,6 +41,7 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
   std::signal(SIGINT, [](int) { g_feed_stop = 1; });
   std::signal(SIGTERM, [](int) { g_feed_stop = 1; });
   std::signal(SIGUSR1, [](int) { g_go = 1; });
+  std::signal(SIGUSR2, [](int) { g_steps = g_steps + 1; });
   // The feed log maps the device's timestamps (v4l2loopback stamps a frame with
   // CLOCK_MONOTONIC when it is written) back to the dataset frame: `monomesh eval --spool
   // --feed-log` evaluates the daemon's keyframes with it.
@@ -56,12 +62,18 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / fps));
   auto next = Clock::now();
   int64_t written = 0;
+  int steps_taken = 0;
   Frame frame;
   bool ended = false;
   while (!g_feed_stop && (count <= 0 || written < count)) {
     // --hold-first: the first frame again (a camera standing still) until SIGUSR1;
+    // --step: the current frame again until the next SIGUSR2, until SIGUSR1 plays on;
     // --hold-last: the last frame again after the end, until SIGTERM or SIGINT.
-    const bool hold = (hold_first && written > 0 && !g_go) || ended;
+    const bool stepping = step && !g_go;
+    const bool next_step = stepping && written > 0 && g_steps > steps_taken;
+    if (next_step) ++steps_taken;
+    const bool hold =
+        (hold_first && written > 0 && !g_go) || (stepping && written > 0 && !next_step) || ended;
     if (!hold) {
       std::string error;
       const ReadStatus s = replay.Read(&frame, std::chrono::milliseconds(1000), &error);
@@ -97,7 +109,12 @@ int RunFeed(const std::string& device, const std::string& dataset, double fps,
     }
     ++written;
     next += period;
-    std::this_thread::sleep_until(next);
+    // A step is played at once, not at the next tick.
+    while (Clock::now() < next && !g_feed_stop && !(stepping && g_steps > steps_taken) &&
+           !(stepping && g_go)) {
+      std::this_thread::sleep_for(std::min<Clock::duration>(next - Clock::now(), 10ms));
+    }
+    if (Clock::now() < next) next = Clock::now();
   }
   std::cerr << "fed " << written << " frames\n";
   return 0;
@@ -113,6 +130,7 @@ Runner AddFeedCommand(CLI::App& app) {
     bool once = false;
     bool hold_first = false;
     bool hold_last = false;
+    bool step = false;
     int64_t count = 0;
     std::string log;
   };
@@ -133,13 +151,18 @@ Runner AddFeedCommand(CLI::App& app) {
                 "With --once: after the end, repeat the last frame (a camera standing still) until "
                 "SIGTERM")
       ->needs(once);
+  cmd->add_flag("--step", args->step,
+                "Play one frame per SIGUSR2, repeating the current one at --fps in between (a "
+                "camera that moves as fast as the program reading it keeps up), until SIGUSR1 "
+                "plays on at --fps")
+      ->excludes("--hold-first");
   cmd->add_option("--log", args->log,
                   "Log each frame's write interval (CLOCK_MONOTONIC) and dataset time (for "
                   "monomesh eval --feed-log)");
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     return RunFeed(args->device, args->dataset, args->fps, args->format, !args->once, args->count,
-                   args->hold_first, args->hold_last, args->log);
+                   args->hold_first, args->hold_last, args->step, args->log);
   };
 }
 

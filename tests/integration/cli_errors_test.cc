@@ -64,8 +64,8 @@ TEST_F(CliErrors, ALensThatDoesNotInvertOverTheImageIsRefusedWhereItIsLoaded) {
   std::ofstream(calib) << "[camera]\nimage_size = [640, 480]\nfc = [535.4, 539.2]\n"
                           "cc = [320.1, 247.6]\nkc = [1e6, 1e6, 0, 0, 1e6]\n";
   const std::string field = "field 'camera.kc': the distortion is not invertible";
-  Expect("undistort --calib " + calib.string() + " " + kImage + " " + (dir_ / "u.png").string(),
-         78, field);
+  Expect("undistort --calib " + calib.string() + " " + kImage + " " + (dir_ / "u.png").string(), 78,
+         field);
   EXPECT_FALSE(fs::exists(dir_ / "u.png"));
   Expect("recon " + kImage + " " + kImage + " --calib " + calib.string() + " --out " +
              (dir_ / "r").string(),
@@ -104,6 +104,7 @@ TEST_F(CliErrors, AnOptionWithoutWhatItActsWithIsAnError) {
   Expect("ctl status --socket a.sock --config b.toml", 108, "excludes");
   Expect("feed --device /dev/null --dataset " + kDataset + " --hold-last", 107,
          "--hold-last requires --once");
+  Expect("feed --device /dev/null --dataset " + kDataset + " --step --hold-first", 108, "excludes");
 }
 
 }  // namespace
