@@ -75,25 +75,9 @@ json Daemon::Status() {
            {{"source", ScaleSourceName(config_.scale.source)}, {"odometry", odometry_.Describe()}}},
           {"walk",
            [this] {
-             const WalkStatus w = walk_->status();
-             return json{{"walking", w.walking},
-                         {"finishing", w.finishing},
-                         {"walk", w.walking ? w.walk : walks_},
-                         {"frames", w.frames},
-                         {"keyframes", w.keyframes},
-                         {"registered", w.registered},
-                         {"segment", w.segment},
-                         {"segments", w.segments},
-                         {"relocalizations", w.relocalizations},
-                         {"merges", w.merges},
-                         {"loop_closures", w.loop_closures},
-                         {"lost_keyframes", w.lost_keyframes},
-                         {"tracked_frames", w.tracked_frames},
-                         {"tracking", w.tracking},
-                         {"parallax_deg", w.parallax_deg},
-                         {"target_deg", config_.walk.gate.parallax_deg},
-                         {"seconds", w.seconds},
-                         {"last_result", last_walk_}};
+             json walk = WalkStatusJson(walk_->status());
+             walk["last_result"] = last_walk_;
+             return walk;
            }()},
           {"spool", spool_.dir().string()},
           {"last_result", last_result_}};

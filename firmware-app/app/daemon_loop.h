@@ -132,6 +132,7 @@ class Daemon {
   json OnWalkStart(const char* origin);
   json OnWalkStop(const char* origin, const std::string& reason);
   void OnWalkDone();
+  json WalkStatusJson(const WalkStatus& w) const;  // `status`'s walk and the walk_frame event.
 
   // control_clients.cc
   void OnAccept();
@@ -205,6 +206,8 @@ class Daemon {
   std::chrono::steady_clock::time_point last_watchdog_;
   uint64_t events_ = 0;  // Events emitted (each carries its number, `seq`).
   std::chrono::steady_clock::time_point last_gate_event_;
+  std::chrono::steady_clock::time_point last_walk_event_;
+  uint64_t walk_frames_seen_ = 0;    // WalkStatus::frames at the last walk_frame event.
   uint64_t camera_errors_seen_ = 0;  // CaptureStats::errors at the last camera event.
   uint64_t camera_frames_seen_ = 0;
   bool camera_failing_ = false;  // An error since the last frame.

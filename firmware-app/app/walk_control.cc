@@ -1,5 +1,6 @@
 // Walk mode on the event loop (docs/walk.md): `walk start` / `walk stop` (or a long press),
-// and the walk thread's keyframes and entry as they come. The walk itself runs in WalkThread.
+// and the walk thread's progress, keyframes and entry as they come. The walk itself runs in
+// WalkThread.
 
 #include "app/daemon_loop.h"
 
@@ -21,6 +22,7 @@ json Daemon::OnWalkStart(const char* origin) {
   if (!latest) return refuse("no frame from the camera yet");
   ++walks_;
   last_walk_sequence_ = latest->sequence;
+  walk_frames_seen_ = 0;
   spdlog::info("walk {} ({}): started at frame {} ({})", walks_, origin, latest->sequence,
                latest->source_id);
   Emit({{"event", "walk_started"},
@@ -50,7 +52,39 @@ json Daemon::OnWalkStop(const char* origin, const std::string& reason) {
   return {{"ok", true}, {"walk", w.walk}, {"keyframes", w.keyframes}};
 }
 
+json Daemon::WalkStatusJson(const WalkStatus& w) const {
+  return json{{"walking", w.walking},
+              {"finishing", w.finishing},
+              {"walk", w.walking ? w.walk : walks_},
+              {"frames", w.frames},
+              {"keyframes", w.keyframes},
+              {"registered", w.registered},
+              {"segment", w.segment},
+              {"segments", w.segments},
+              {"relocalizations", w.relocalizations},
+              {"merges", w.merges},
+              {"loop_closures", w.loop_closures},
+              {"lost_keyframes", w.lost_keyframes},
+              {"tracked_frames", w.tracked_frames},
+              {"tracking", w.tracking},
+              {"parallax_deg", w.parallax_deg},
+              {"target_deg", config_.walk.gate.parallax_deg},
+              {"seconds", w.seconds}};
+}
+
 void Daemon::OnWalkDone() {
+  // The walk's progress, at most 5 per second while it looks at new frames (as the gate's).
+  if (const WalkStatus w = walk_->status();
+      w.walking && !w.finishing && w.frames > walk_frames_seen_) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_walk_event_ >= kGateEventPeriod) {
+      last_walk_event_ = now;
+      walk_frames_seen_ = w.frames;
+      json event = WalkStatusJson(w);
+      event["event"] = "walk_frame";
+      Emit(std::move(event));
+    }
+  }
   for (const WalkKeyframeSummary& k : walk_->TakeKeyframes()) {
     if (!k.failure.empty()) {
       spdlog::warn("walk {}: keyframe {} (segment {}): {}", walks_, k.index, k.segment, k.failure);

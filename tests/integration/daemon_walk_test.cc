@@ -3,7 +3,9 @@
 // the exact ground truth by `monomesh eval --spool`; an operator's stop; kill -9 during a walk; the
 // daemon's peak RSS over a walk of 300 keyframes.
 #include <Eigen/Geometry>
+#include <cstdio>
 #include <fstream>
+#include <vector>
 
 #include "entry/mesh_gltf.h"
 #include "entry/walk_entry.h"
@@ -80,6 +82,14 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
                        "[scale]\nsource = \"floor\"\ncamera_height_m = 1.6\n", seq, "",
                        seq / "calib.toml");
   daemon.Start();
+  // The walk's events, watched from before its start to its entry.
+  const std::string watch = "timeout 240 " + Monomesh() + " ctl watch --socket " +
+                            daemon.socket().string() + " --until walk_entry --until walk_failed";
+  FILE* pipe = ::popen(watch.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char buf[65536];
+  ASSERT_NE(std::fgets(buf, sizeof(buf), pipe), nullptr) << daemon.log();
+  ASSERT_TRUE(json::parse(buf).value("watching", false)) << buf;
   const json started = daemon.Command("walk start");
   ASSERT_TRUE(started.value("ok", false)) << started.dump();
   // A capture is refused while walking, naming the state.
@@ -88,6 +98,12 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   EXPECT_EQ(trigger.value("error", ""), "busy: walking");
   const json last = WaitForWalk(daemon, started["walk"].get<uint64_t>(), 180s);
   ASSERT_TRUE(last.value("ok", false)) << last.dump() << "\n" << daemon.log();
+  std::vector<json> frame_events;
+  while (std::fgets(buf, sizeof(buf), pipe) != nullptr) {
+    const json e = json::parse(buf);
+    if (e["event"] == "walk_frame") frame_events.push_back(e);
+  }
+  EXPECT_EQ(::pclose(pipe), 0) << daemon.log();
   EXPECT_EQ(last["reason"], "camera ended");
   EXPECT_EQ(last["segments"], 1) << daemon.log();
   const fs::path entry = last["entry"].get<std::string>();
@@ -113,6 +129,27 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   for (const WalkReport::Keyframe& k : report.keyframes) {
     EXPECT_TRUE(fs::exists(entry / k.image)) << k.image;
   }
+  // The walk's progress as it went: walk_frame events of this walk, 5 a second at most, their
+  // frame and keyframe counts growing to the entry's.
+  ASSERT_GE(frame_events.size(), 10u) << daemon.log();
+  for (size_t i = 0; i < frame_events.size(); ++i) {
+    const json& e = frame_events[i];
+    EXPECT_EQ(e["walk"], started["walk"]) << e.dump();
+    EXPECT_TRUE(e["walking"].get<bool>()) << e.dump();
+    EXPECT_LE(e["tracked_frames"].get<uint64_t>(), e["frames"].get<uint64_t>()) << e.dump();
+    if (i == 0) continue;
+    const json& before = frame_events[i - 1];
+    EXPECT_GT(e["frames"].get<uint64_t>(), before["frames"].get<uint64_t>()) << e.dump();
+    EXPECT_GE(e["keyframes"].get<int>(), before["keyframes"].get<int>()) << e.dump();
+    EXPECT_GE(e["time_ns"].get<int64_t>() - before["time_ns"].get<int64_t>(), 200'000'000)
+        << e.dump();
+  }
+  EXPECT_LE(frame_events.back()["frames"].get<uint64_t>(), report.frames);
+  EXPECT_LE(frame_events.back()["keyframes"].get<int>(), report.counts.keyframes);
+  EXPECT_GE(frame_events.back()["keyframes"].get<int>(), report.counts.keyframes - 3);
+  std::cout << "[ figures  ] " << frame_events.size() << " walk_frame events, the last at frame "
+            << frame_events.back()["frames"] << " of " << report.frames << ", keyframe "
+            << frame_events.back()["keyframes"] << " of " << report.counts.keyframes << "\n";
   // trajectory.txt: one TUM line per registered keyframe of the map segment.
   std::ifstream trajectory(entry / "trajectory.txt");
   int poses = 0;

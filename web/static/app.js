@@ -128,7 +128,7 @@ function showWalk(walk) {
     state.textContent = "not walking";
     $("walk-text").textContent = "";
   }
-  showWalkResult(walk.last_result);
+  if ("last_result" in walk) showWalkResult(walk.last_result);  // not in a walk_frame event
 }
 
 // The last walk's outcome: {walk, ok, entry, error, reason, keyframes, registered, segments}.
@@ -283,6 +283,7 @@ function listen() {
   for (const name of ["walk_started", "walk_keyframe", "walk_stopping", "walk_failed"]) {
     on(name, pollStatus);
   }
+  on("walk_frame", showWalk);  // the walk's progress between keyframes, 5 a second at most
   on("walk_entry", () => { pollStatus(); refreshEntries(); });
   on("walk_refused", (r) => {
     $("walk-last-result").textContent = `walk refused: ${r.error}`;
