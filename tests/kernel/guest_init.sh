@@ -139,9 +139,11 @@ appliance appliance-loopback /dataset
 # Real hand-held video (SUN3D, 30 Hz) when ../shared/data has it: the same path, real motion.
 [ -f /dataset_video/check.conf ] && appliance appliance-loopback-real-video /dataset_video
 
-# 7. Walk mode through v4l2loopback: the corridor walk round its corner (run.sh made it) fed once
-# at a rate the guest's walk keeps up with, its first frame held until `ctl walk start`, its last
-# frame held after the end (the robot standing still) until the walk has looked at it; then
+# 7. Walk mode through v4l2loopback: the corridor walk round its corner (run.sh made it) fed once,
+# a frame at a time as the guest's walk takes them (step_feed; the speed of TCG differs threefold
+# between hosts, a fixed rate made the walk skip 1.5 m on a slow one), its first frame held until
+# `ctl walk start`, its last frame held after the end (the robot standing still) until the walk
+# has looked at it; then
 # `ctl walk stop`, one walk entry, and its trajectory against the exact ground truth by
 # `monomesh eval --spool --feed-log` (ATE RMSE after a Sim(3) alignment, relative to the path).
 # Usage: walk_check NAME DATASET
@@ -151,13 +153,42 @@ walk_frames() {
   monomesh ctl status --socket $1 | awk '/"walk": \{/ { w = 1 } w && /"frames"/ { gsub(/[^0-9]/, ""); print; exit }'
 }
 walk_frames_over() { [ "$(walk_frames $1)" -gt $2 ]; }
+# feed_moved LOG T: the feeder's newest frame is not the dataset frame at time T.
+feed_moved() { [ "$(tail -n 1 $1 | cut -d' ' -f3)" != "$2" ]; }
+# walk_frames_seen EVENTS: the frames the walk had looked at by its newest walk_frame event.
+walk_frames_seen() {
+  wf=$(json_value frames "$(grep '"event":"walk_frame"' $1 | tail -n 1)")
+  echo ${wf:-0}
+}
+walk_frames_seen_over() { [ "$(walk_frames_seen $1)" -gt $2 ]; }
+# step_feed FEEDER LOG ERR EVENTS UNTIL...: plays a `monomesh feed --step` feeder one frame at a
+# time, each once the daemon's walk has looked at the one before (a robot that moves only as fast
+# as its board maps: under TCG a keyframe takes 2-15 s, depending on the host), until the command
+# UNTIL succeeds or the feeder holds its last frame. The walk's progress comes from its
+# walk_frame events in EVENTS (`ctl watch`; one per frame under TCG, where a frame takes longer
+# than their 0.2 s spacing). When the new frame is on the device, the walk may still be on an
+# older one; the one it takes next is the new one (the camera thread posts it within
+# milliseconds), so two more frames looked at include it.
+step_feed() {
+  sf_feeder=$1 sf_log=$2 sf_err=$3 sf_events=$4
+  shift 4
+  while ! "$@" && ! feed_held $sf_err $sf_feeder; do
+    sf_t=$(tail -n 1 $sf_log | cut -d' ' -f3)
+    kill -USR2 $sf_feeder
+    wait_for 30 feed_moved_or_held $sf_log "$sf_t" $sf_err $sf_feeder || return 1
+    sf_n=$(walk_frames_seen $sf_events)
+    wait_for 600 walk_frames_seen_over $sf_events $((sf_n + 1)) || return 1
+  done
+}
+feed_moved_or_held() { feed_moved $1 "$2" || feed_held $3 $4; }
+never() { false; }
 walk_check() {
   name=$1 ds=$2
   read fps max_ate min_kf min_path calib < $ds/check.conf
   d=/tmp/mm-$name
   mkdir -p $d/spool
   monomesh feed --device /dev/video10 --dataset $ds --fps "$fps" --format yuyv --once \
-    --hold-first --hold-last --log $d/feed.log 2> $d/feed.err &
+    --step --hold-last --log $d/feed.log 2> $d/feed.err &
   feeder=$!
   wait_for 10 feed_started $d/feed.log
   start_daemon $d "$ds/$calib" ''
@@ -166,8 +197,8 @@ walk_check() {
   wait_for 30 grep -q '"watching":true' $d/events.log
   t0=$(date +%s)
   monomesh ctl walk start --socket $d/control.sock > $d/start.json 2>&1
-  kill -USR1 $feeder
-  wait_for 600 feed_held $d/feed.err $feeder
+  step_feed $feeder $d/feed.log $d/feed.err $d/events.log never
+  wait_for 60 feed_held $d/feed.err $feeder
   t_fed=$(date +%s)
   # The frame the walk is on may predate the hold: two more, and the last one is in the walk.
   n=$(walk_frames $d/control.sock)
@@ -202,7 +233,8 @@ walk_check appliance-loopback-walk /dataset_walk
 # 8. The GPIO button's gestures on the appliance (gpio-sim's line 3 as monomeshd's button,
 # [trigger] long_press_ms = 1000; the press times are the kernel's edge timestamps): a press
 # held 2 s starts a walk, a second one stops it and its entry is written; a short press (0.3 s)
-# is one capture, not a walk. The corridor walk is fed as in 7, from the first long press.
+# is one capture, not a walk. The corridor walk is fed as in 7 from the first long press, then
+# plays on at --fps for the capture.
 # Usage: gpio_gestures DATASET CHIP PULL_FILE
 press() { echo pull-down > $pull; sleep $1; echo pull-up > $pull; }
 gpio_gestures() {
@@ -212,7 +244,7 @@ gpio_gestures() {
   mkdir -p $d/spool
   echo pull-up > $pull  # Released (active-low).
   monomesh feed --device /dev/video10 --dataset $ds --fps "$fps" --format yuyv --once \
-    --hold-first --hold-last --log $d/feed.log 2> $d/feed.err &
+    --step --hold-last --log $d/feed.log 2> $d/feed.err &
   feeder=$!
   wait_for 10 feed_started $d/feed.log
   start_daemon $d "$ds/$calib" "[trigger]\ngpio_chip = \"$chip\"\ngpio_line = \"button\"\nlong_press_ms = 1000\n[walk]\nmesh = \"sparse\"\n"
@@ -222,11 +254,12 @@ gpio_gestures() {
   t0=$(date +%s)
   press 2
   wait_for 30 grep -q '"event":"walk_started"' $d/events.log
-  kill -USR1 $feeder
-  wait_for 300 count_at_least 3 $d/events.log '"event":"walk_keyframe"'
+  step_feed $feeder $d/feed.log $d/feed.err $d/events.log \
+    count_at_least 3 $d/events.log '"event":"walk_keyframe"'
   press 2
   wait_for 300 grep -qE '"event":"walk_(entry|failed)"' $d/events.log
   t1=$(date +%s)
+  kill -USR1 $feeder  # The rest of the corridor at --fps, for the capture below.
   started=$(grep '"event":"walk_started"' $d/events.log | head -n 1)
   stopping=$(grep '"event":"walk_stopping"' $d/events.log | head -n 1)
   entry=$(grep '"event":"walk_entry"' $d/events.log | head -n 1)
