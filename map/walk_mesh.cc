@@ -1,5 +1,7 @@
 #include "map/walk_mesh.h"
 
+#include "base/stats.h"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -7,7 +9,10 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <optional>
+#include <span>
+#include <utility>
 
 namespace mm {
 namespace {
@@ -131,6 +136,57 @@ cv::Mat HeldInverseDepth(const Mesh& mesh, const DepthView& view) {
   return held;
 }
 
+// The part keyframe k's stereo views (WalkMeshOptions::stereo_neighbours): its neighbours in the
+// segment that see most of k's points (`point_ids`) inside their image, widest median
+// triangulation angle first, up to the cap; the first is the partner (it sets the sweep's
+// planes). None qualifies: the keyframe before k (after it for the first). Empty: a segment of
+// one keyframe.
+std::vector<int> StereoViews(const std::vector<WalkKeyframe>& keyframes,
+                             const std::vector<WalkPoint>& points,
+                             const std::vector<int>& point_ids, const std::vector<int>& members,
+                             int k, const Eigen::Matrix3d& K, int width, int height,
+                             const WalkMeshOptions& options) {
+  const auto it = std::find(members.begin(), members.end(), k);
+  const auto at = static_cast<int>(it - members.begin());
+  const Eigen::Vector3d centre_k =
+      keyframes[static_cast<size_t>(k)].cam_from_segment.inverse().translation();
+  const double max_angle = options.max_stereo_angle_deg * std::numbers::pi / 180.0;
+  std::vector<std::pair<double, int>> ranked;  // (-angle, keyframe)
+  for (int d = -options.stereo_neighbours; d <= options.stereo_neighbours; ++d) {
+    const int m = at + d;
+    if (d == 0 || m < 0 || m >= static_cast<int>(members.size()) || point_ids.empty()) continue;
+    const int c = members[static_cast<size_t>(m)];
+    const Eigen::Isometry3d& c_from_segment = keyframes[static_cast<size_t>(c)].cam_from_segment;
+    const Eigen::Vector3d centre_c = c_from_segment.inverse().translation();
+    std::vector<double> angles;
+    for (int id : point_ids) {
+      const Eigen::Vector3d& x = points[static_cast<size_t>(id)].position_in_segment;
+      const Eigen::Vector3d p = K * (c_from_segment * x);
+      if (p.z() <= 0) continue;
+      const double u = p.x() / p.z(), v = p.y() / p.z();
+      if (u < 0 || v < 0 || u >= width || v >= height) continue;
+      const Eigen::Vector3d a = x - centre_k, b = x - centre_c;
+      angles.push_back(std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)));
+    }
+    if (static_cast<double>(angles.size()) <
+        options.min_stereo_overlap * static_cast<double>(point_ids.size())) {
+      continue;
+    }
+    const double angle = MedianOf(std::move(angles));
+    if (angle <= max_angle) ranked.emplace_back(-angle, c);
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<int> views;
+  for (const auto& [negative_angle, c] : ranked) {
+    if (static_cast<int>(views.size()) > options.stereo_extra_views) break;
+    views.push_back(c);
+  }
+  if (views.empty() && members.size() > 1) {
+    views.push_back(it == members.begin() ? members[1] : *(it - 1));
+  }
+  return views;
+}
+
 }  // namespace
 
 std::string WalkMeshOptions::Check() const {
@@ -141,6 +197,12 @@ std::string WalkMeshOptions::Check() const {
     return "max_shared_points: must be in [0, 1]";
   }
   if (max_parts < 1) return "max_parts: must be >= 1";
+  if (stereo_neighbours < 1) return "stereo_neighbours: must be >= 1";
+  if (stereo_extra_views < 0) return "stereo_extra_views: must be >= 0";
+  if (!(max_stereo_angle_deg > 0)) return "max_stereo_angle_deg: must be > 0";
+  if (!(min_stereo_overlap >= 0 && min_stereo_overlap <= 1)) {
+    return "min_stereo_overlap: must be in [0, 1]";
+  }
   if (overlap_parts < 0) return "overlap_parts: must be >= 0";
   if (!(overlap_depth_rel >= 0)) return "overlap_depth_rel: must be >= 0";
   if (free_space_min_views < 0) return "free_space_min_views: must be >= 0";
@@ -280,20 +342,25 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
     part.keyframe = k;
     DepthView view{keyframe.cam_from_segment, std::nullopt};
     if (options.dense) {
-      // The stereo partner: the keyframe before it in the segment (after it for the first).
-      const auto it = std::find(members.begin(), members.end(), k);
-      const int partner =
-          it == members.begin() ? (members.size() > 1 ? members[1] : -1) : *(it - 1);
-      const cv::Mat partner_image = partner >= 0 ? image_of(partner) : cv::Mat();
-      if (!partner_image.empty()) {
-        cv::Mat partner_gray;
-        cv::cvtColor(partner_image, partner_gray, cv::COLOR_BGR2GRAY);
-        const Eigen::Isometry3d partner_from_cam =
-            keyframes[static_cast<size_t>(partner)].cam_from_segment *
-            keyframe.cam_from_segment.inverse();
-        DenseDepth depth =
-            ComputeDenseDepth(gray, partner_gray, K, partner_from_cam.linear(),
-                              partner_from_cam.translation(), points_in_cam, options.depth);
+      // The partner and the further views, each as grey image and pose from this keyframe.
+      std::vector<DenseView> stereo;
+      for (int c :
+           StereoViews(keyframes, points, points_of(k), members, k, K, width, height, options)) {
+        const cv::Mat c_image = image_of(c);
+        if (c_image.empty()) continue;
+        DenseView v;
+        cv::cvtColor(c_image, v.gray, cv::COLOR_BGR2GRAY);
+        const Eigen::Isometry3d c_from_cam = keyframes[static_cast<size_t>(c)].cam_from_segment *
+                                             keyframe.cam_from_segment.inverse();
+        v.rotation_from_a = c_from_cam.linear();
+        v.translation_from_a = c_from_cam.translation();
+        stereo.push_back(std::move(v));
+      }
+      if (!stereo.empty()) {
+        const DenseView& partner = stereo.front();
+        DenseDepth depth = ComputeDenseDepth(
+            gray, partner.gray, K, partner.rotation_from_a, partner.translation_from_a,
+            points_in_cam, options.depth, std::span<const DenseView>(stereo).subspan(1));
         if (depth.success) {
           part.mesh = BuildDenseMesh(depth, K, image.cols, image.rows, options.dense_mesh);
           part.dense = !part.mesh.triangles.empty();

@@ -49,7 +49,18 @@ struct WalkMeshOptions {
   /// A keyframe gets a part when the last part's keyframe observes at most this share of the
   /// keyframe's map points.
   double max_shared_points = 0.5;
-  int max_parts = 64;     ///< More candidates: every n-th is taken, evenly along the walk.
+  int max_parts = 64;  ///< More candidates: every n-th is taken, evenly along the walk.
+  /// A part's stereo partner: of the keyframes up to this many before and after it in the
+  /// segment, the one that sees its map points under the widest median triangulation angle up
+  /// to `max_stereo_angle_deg` (depth precision grows with the angle; past it the views differ
+  /// too much for the window match), with at least `min_stereo_overlap` of the points in its
+  /// image; none: the keyframe before it.
+  int stereo_neighbours = 3;
+  double max_stereo_angle_deg = 10.0;
+  double min_stereo_overlap = 0.6;
+  /// The next widest of them join the sweep as further views (recon/dense.h: their costs
+  /// combined with the partner's, a view that does not see a point counts less).
+  int stereo_extra_views = 1;
   int overlap_parts = 8;  ///< Parts before and after a part that can hold its surfaces.
   double overlap_depth_rel = 0.05;
   /// Free-space carving: a triangle is dropped when at least this many other parts'

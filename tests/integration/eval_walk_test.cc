@@ -202,9 +202,11 @@ TEST(EvalWalk, RedKitchenHandHeldWalkIsOneMap) {
   EXPECT_GE(w["tracked_frames"].get<int>(), static_cast<int>(0.9 * (500 - keyframes)));
   const double path = w["path_length_m"].get<double>();
   EXPECT_GT(path, 3.0);
-  // Measured: 0.97 % of the path; its map points 4.4 % from the depth maps (docs/walk.md).
+  // Measured: 0.90 % of the path; its map points 4.5 % from the depth maps, the map mesh 6.4 %
+  // (docs/walk.md; over RANSAC seeds 0-5 the mesh is 5.3-13.8 %, this seed is the default).
   EXPECT_LE(w["ate_rmse_m"].get<double>(), 0.0125 * path);
   EXPECT_LE(w["point_depth_rel_err"]["median"].get<double>(), 0.06);
+  EXPECT_LE(w["map_depth_rel_err"]["median"].get<double>(), 0.08);
   fs::remove_all(dir);
 }
 
