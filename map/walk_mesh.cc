@@ -1,7 +1,5 @@
 #include "map/walk_mesh.h"
 
-#include "base/stats.h"
-
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -13,6 +11,8 @@
 #include <optional>
 #include <span>
 #include <utility>
+
+#include "base/stats.h"
 
 namespace mm {
 namespace {
