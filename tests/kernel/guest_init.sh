@@ -163,7 +163,7 @@ walk_frames_seen() {
 walk_frames_seen_over() { [ "$(walk_frames_seen $1)" -gt $2 ]; }
 # step_feed FEEDER LOG ERR EVENTS UNTIL...: plays a `monomesh feed --step` feeder one frame at a
 # time, each once the daemon's walk has looked at the one before (a robot that moves only as fast
-# as its board maps: under TCG a keyframe takes 2-15 s, depending on the host), until the command
+# as its board maps: under TCG a keyframe takes 2-17 s, depending on the host), until the command
 # UNTIL succeeds or the feeder holds its last frame. The walk's progress comes from its
 # walk_frame events in EVENTS (`ctl watch`; one per frame under TCG, where a frame takes longer
 # than their 0.2 s spacing). When the new frame is on the device, the walk may still be on an
