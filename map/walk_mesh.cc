@@ -315,6 +315,7 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
   }
   if (static_cast<int>(chosen.size()) > options.max_parts) {
     std::vector<int> even;
+    even.reserve(static_cast<size_t>(options.max_parts));
     for (int i = 0; i < options.max_parts; ++i) {
       even.push_back(chosen[static_cast<size_t>(i) * (chosen.size() - 1) /
                             static_cast<size_t>(std::max(options.max_parts - 1, 1))]);
