@@ -334,8 +334,9 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
     width = image.cols, height = image.rows;
     cv::Mat gray;
     cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+    const std::vector<int> point_ids = points_of(k);
     std::vector<Eigen::Vector3d> points_in_cam;
-    for (int id : points_of(k)) {
+    for (int id : point_ids) {
       points_in_cam.push_back(keyframe.cam_from_segment *
                               points[static_cast<size_t>(id)].position_in_segment);
     }
@@ -346,7 +347,7 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
       // The partner and the further views, each as grey image and pose from this keyframe.
       std::vector<DenseView> stereo;
       for (int c :
-           StereoViews(keyframes, points, points_of(k), members, k, K, width, height, options)) {
+           StereoViews(keyframes, points, point_ids, members, k, K, width, height, options)) {
         const cv::Mat c_image = image_of(c);
         if (c_image.empty()) continue;
         DenseView v;
