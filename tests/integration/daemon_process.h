@@ -10,9 +10,11 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -20,6 +22,7 @@
 
 #include "app/control.h"
 #include "entry/entry.h"
+#include "tests/support/run_command.h"
 
 extern char** environ;
 
@@ -50,6 +53,39 @@ struct CameraUri {
 /// The [control] keys after socket in every test config: the daemon's own group (a test machine
 /// need not have group monomesh). Tests of the socket's access replace this line.
 inline const std::string kControlAccess = "group = \"\"\n";
+
+// `monomesh ctl watch` on a daemon's control socket, as a child process that ends at the first
+// event named in `until` (or after `timeout_s`): its lines as JSON, the first one the status
+// ("watching": true), then the events as they come. Closed (and waited for) on destruction.
+class EventWatch {
+ public:
+  EventWatch(const fs::path& socket, const std::vector<std::string>& until, int timeout_s) {
+    std::string command = "timeout " + std::to_string(timeout_s) + " " + Monomesh() +
+                          " ctl watch --socket " + socket.string();
+    for (const std::string& name : until) command += " --until " + name;
+    pipe_ = ::popen(command.c_str(), "r");
+  }
+  EventWatch(const EventWatch&) = delete;
+  EventWatch& operator=(const EventWatch&) = delete;
+  ~EventWatch() { Close(); }
+
+  /// The next line; none once the watcher has ended (or could not start).
+  std::optional<json> Next() {
+    char buf[65536];
+    if (pipe_ == nullptr || std::fgets(buf, sizeof(buf), pipe_) == nullptr) return std::nullopt;
+    return json::parse(buf);
+  }
+  /// Waits for the watcher to end: its wait status (0: exited 0), -1 if it never started.
+  int Close() {
+    if (pipe_ == nullptr) return -1;
+    const int status = ::pclose(pipe_);
+    pipe_ = nullptr;
+    return status;
+  }
+
+ private:
+  FILE* pipe_ = nullptr;
+};
 
 // A daemon process with its own folder, config, socket and spool; killed on destruction.
 class DaemonProcess {

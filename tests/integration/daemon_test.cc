@@ -478,20 +478,17 @@ TEST(Daemon, WatchStreamsTheEventsOfACaptureInOrder) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   DaemonProcess daemon("watch", "rate=realtime&loop=1");
   daemon.Start();
-  const std::string cmd = "timeout 120 " + Monomesh() + " ctl watch --socket " +
-                          daemon.socket().string() + " --until entry --until capture_failed";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
+  EventWatch watch(daemon.socket(), {"entry", "capture_failed"}, 120);
   std::vector<json> lines;
-  char buf[65536];
-  ASSERT_NE(std::fgets(buf, sizeof(buf), pipe), nullptr) << daemon.log();
-  lines.push_back(json::parse(buf));
-  ASSERT_TRUE(lines[0].value("watching", false)) << buf;
+  std::optional<json> first = watch.Next();
+  ASSERT_TRUE(first) << daemon.log();
+  lines.push_back(*first);
+  ASSERT_TRUE(lines[0].value("watching", false)) << lines[0].dump();
   EXPECT_EQ(lines[0]["status"]["state"], "idle");
   const json reply = daemon.Command("trigger");
   ASSERT_TRUE(reply.value("ok", false)) << reply.dump();
-  while (std::fgets(buf, sizeof(buf), pipe) != nullptr) lines.push_back(json::parse(buf));
-  const int status = ::pclose(pipe);
+  while (std::optional<json> e = watch.Next()) lines.push_back(*e);
+  const int status = watch.Close();
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status << "\n" << daemon.log();
 
   std::string sequence;  // The events' names (a state change as its state), gate lines left out.

@@ -3,8 +3,8 @@
 // the exact ground truth by `monomesh eval --spool`; an operator's stop; kill -9 during a walk; the
 // daemon's peak RSS over a walk of 300 keyframes.
 #include <Eigen/Geometry>
-#include <cstdio>
 #include <fstream>
+#include <optional>
 #include <vector>
 
 #include "entry/mesh_gltf.h"
@@ -83,13 +83,10 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
                        seq / "calib.toml");
   daemon.Start();
   // The walk's events, watched from before its start to its entry.
-  const std::string watch = "timeout 240 " + Monomesh() + " ctl watch --socket " +
-                            daemon.socket().string() + " --until walk_entry --until walk_failed";
-  FILE* pipe = ::popen(watch.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  char buf[65536];
-  ASSERT_NE(std::fgets(buf, sizeof(buf), pipe), nullptr) << daemon.log();
-  ASSERT_TRUE(json::parse(buf).value("watching", false)) << buf;
+  EventWatch watch(daemon.socket(), {"walk_entry", "walk_failed"}, 240);
+  const std::optional<json> first = watch.Next();
+  ASSERT_TRUE(first) << daemon.log();
+  ASSERT_TRUE(first->value("watching", false)) << first->dump();
   const json started = daemon.Command("walk start");
   ASSERT_TRUE(started.value("ok", false)) << started.dump();
   // A capture is refused while walking, naming the state.
@@ -99,11 +96,10 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   const json last = WaitForWalk(daemon, started["walk"].get<uint64_t>(), 180s);
   ASSERT_TRUE(last.value("ok", false)) << last.dump() << "\n" << daemon.log();
   std::vector<json> frame_events;
-  while (std::fgets(buf, sizeof(buf), pipe) != nullptr) {
-    const json e = json::parse(buf);
-    if (e["event"] == "walk_frame") frame_events.push_back(e);
+  while (std::optional<json> e = watch.Next()) {
+    if ((*e)["event"] == "walk_frame") frame_events.push_back(*e);
   }
-  EXPECT_EQ(::pclose(pipe), 0) << daemon.log();
+  EXPECT_EQ(watch.Close(), 0) << daemon.log();
   EXPECT_EQ(last["reason"], "camera ended");
   EXPECT_EQ(last["segments"], 1) << daemon.log();
   const fs::path entry = last["entry"].get<std::string>();
