@@ -148,11 +148,6 @@ appliance appliance-loopback /dataset
 # `monomesh eval --spool --feed-log` (ATE RMSE after a Sim(3) alignment, relative to the path).
 # Usage: walk_check NAME DATASET
 # (DATASET/check.conf: fps max_ate_percent min_keyframes min_path_m calibration).
-# walk_frames SOCKET: the frames the daemon's walk has looked at (`ctl status` walk.frames).
-walk_frames() {
-  monomesh ctl status --socket $1 | awk '/"walk": \{/ { w = 1 } w && /"frames"/ { gsub(/[^0-9]/, ""); print; exit }'
-}
-walk_frames_over() { [ "$(walk_frames $1)" -gt $2 ]; }
 # feed_moved LOG T: the feeder's newest frame is not the dataset frame at time T.
 feed_moved() { [ "$(tail -n 1 $1 | cut -d' ' -f3)" != "$2" ]; }
 # walk_frames_seen EVENTS: the frames the walk had looked at by its newest walk_frame event.
@@ -201,8 +196,8 @@ walk_check() {
   wait_for 60 feed_held $d/feed.err $feeder
   t_fed=$(date +%s)
   # The frame the walk is on may predate the hold: two more, and the last one is in the walk.
-  n=$(walk_frames $d/control.sock)
-  wait_for 60 walk_frames_over $d/control.sock $((n + 1))
+  n=$(walk_frames_seen $d/events.log)
+  wait_for 60 walk_frames_seen_over $d/events.log $((n + 1))
   monomesh ctl walk stop --socket $d/control.sock > $d/stop.json 2>&1
   wait_for 300 grep -qE '"event":"walk_(entry|failed)"' $d/events.log
   t1=$(date +%s)
