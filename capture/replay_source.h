@@ -11,6 +11,13 @@
 
 namespace mm {
 
+/// A looping replay at its recorded rate keeps its decoded frames when all of them fit in this
+/// many bytes (the bundled 6-frame folder: 5.5 MB), so later passes decode nothing: the PNG
+/// decoder was most of a looping camera's CPU. A larger folder is decoded every pass (the
+/// corridor's 300 frames would add 276 MB to the daemon's resident set). At `rate=max` the
+/// decoder paces the camera, which is otherwise a spin of frames nobody takes.
+inline constexpr size_t kReplayLoopCacheBytes = size_t{16} << 20;
+
 /// Playback speed factors accepted (`speed=` in the URI).
 inline constexpr double kMinReplaySpeed = 0.001;
 inline constexpr double kMaxReplaySpeed = 1000.0;
@@ -49,6 +56,10 @@ class ReplaySource final : public FrameSource {
   uint64_t sequence_ = 0;
   int64_t start_ns_ = 0;        // Wall time of frame 0 of the current pass.
   double pass_offset_s_ = 0.0;  // Dataset time added per completed loop pass.
+  // With loop and realtime: the decoded frames of the first pass, shared (frames are read-only once
+  // published), while they fit kReplayLoopCacheBytes; cleared for good when they do not.
+  std::vector<cv::Mat> decoded_;
+  bool cache_decoded_ = false;
 };
 
 }  // namespace mm

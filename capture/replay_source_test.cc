@@ -64,6 +64,70 @@ TEST(ReplaySource, LoopsWithIncreasingSequence) {
   }
 }
 
+// A loop at its recorded rate that fits kReplayLoopCacheBytes decodes each file once: its
+// later passes play on with the files gone. One that does not fit, or at the maximum rate,
+// reads the files again on every pass.
+TEST(ReplaySource, LoopDecodesEachFileOnceWhenItsFramesFitTheCache) {
+  const auto dir = MakeDataset("loopcache", 3);
+  ReplayOptions options;
+  options.speed = 100.0;
+  options.loop = true;
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  for (int i = 0; i < 3; ++i) {
+    Frame frame;
+    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
+  }
+  std::filesystem::remove_all(dir / "rgb");
+  for (int i = 3; i < 9; ++i) {
+    Frame frame;
+    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
+    EXPECT_EQ(frame.image.at<cv::Vec3b>(0, 0)[0], i % 3);
+    EXPECT_EQ(frame.sequence, static_cast<uint64_t>(i));
+  }
+}
+
+TEST(ReplaySource, LoopTooLargeForTheCacheReadsTheFilesEachPass) {
+  const auto dir = MakeDataset("loopnocache", 2);
+  ReplayOptions options;
+  options.speed = 100.0;
+  options.loop = true;
+  // Two frames of 4000x1500x3 bytes (18 MB) do not fit 16 MiB.
+  options.width = 4000;
+  options.height = 1500;
+  ASSERT_GT(size_t{4000} * 1500 * 3 * 2, kReplayLoopCacheBytes);
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  for (int i = 0; i < 2; ++i) {
+    Frame frame;
+    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
+    EXPECT_EQ(frame.image.cols, 4000);
+  }
+  std::filesystem::remove_all(dir / "rgb");
+  Frame frame;
+  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kError);
+  EXPECT_NE(error.find("cannot decode image"), std::string::npos) << error;
+}
+
+TEST(ReplaySource, LoopAtTheMaximumRateReadsTheFilesEachPass) {
+  const auto dir = MakeDataset("loopmax", 2);
+  ReplayOptions options;
+  options.realtime = false;
+  options.loop = true;
+  ReplaySource source(dir, options);
+  ASSERT_EQ(source.Open(), "");
+  std::string error;
+  for (int i = 0; i < 2; ++i) {
+    Frame frame;
+    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
+  }
+  std::filesystem::remove_all(dir / "rgb");
+  Frame frame;
+  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kError);
+}
+
 TEST(ReplaySource, ResizesToTheRequestedSize) {
   const auto dir = MakeDataset("resize", 1);
   ReplayOptions options;
