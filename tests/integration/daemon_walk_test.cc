@@ -11,29 +11,24 @@
 #include "entry/walk_entry.h"
 #include "tests/integration/daemon_process.h"
 #include "tests/support/run_command.h"
+#include "tests/support/synth_fixture.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm::test {
 namespace {
 
-// `monomesh synth` (the corridor round its corner, 300 frames at 30 Hz, 640x480 pinhole).
-fs::path Synthesize(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_walk_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  int status = 0;
-  const std::string out =
-      RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +
-                     " --frames 300 --fps 30 --seed 2 --path walk",
-                 &status);
-  EXPECT_EQ(status, 0) << out;
-  return dir / "seq";
-}
-
-// The corridor of every test here, synthesised once for the binary (the tests only read it: each
-// daemon has its own folder and spool).
+// The corridor of every test here (round its corner, 300 frames at 30 Hz, 640x480 pinhole):
+// ctest's fixture synth/corridor_walk_seed2 (tests/CMakeLists.txt), shared with eval_walk_test;
+// the tests only read it (each daemon has its own folder and spool).
 const fs::path& Corridor() {
-  static const fs::path seq = Synthesize("corridor");
+  static const fs::path seq = [] {
+    std::string error;
+    fs::path made = SynthFixture(
+        "MM_SYNTH_CORRIDOR_WALK_SEED2", "--scene l-corridor --frames 300 --fps 30 --seed 2 --path walk",
+        FreshTempDir("walk_corridor"), &error);
+    EXPECT_FALSE(made.empty()) << error;
+    return made;
+  }();
   return seq;
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "tests/support/run_command.h"
+#include "tests/support/synth_fixture.h"
 #include "tests/support/temp_dir.h"
 #include "tests/support/shared_data.h"
 
@@ -126,13 +127,14 @@ TEST(EvalCaptures, Sun3dStudyRoomHandHeldVideo) {
 void SynthPath(const std::string& path) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   const fs::path dir = TempDir(path);
-  int status = 0;
-  const std::string out =
-      RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +
-                     " --frames 240 --fps 30 --seed 3 --path " + path,
-                 &status);
-  ASSERT_EQ(status, 0) << out;
-  const Figures f = Summarize({EvalCaptures(dir / "seq", dir / "seq" / "calib.toml", dir, "")});
+  // The walk: ctest's fixture synth/corridor_walk_seed3 (tests/CMakeLists.txt), shared with
+  // eval_scale_test; the forward path is this test's alone.
+  std::string error;
+  const fs::path seq =
+      SynthFixture(path == "walk" ? "MM_SYNTH_CORRIDOR_WALK_SEED3" : nullptr,
+                   "--scene l-corridor --frames 240 --fps 30 --seed 3 --path " + path, dir, &error);
+  ASSERT_FALSE(seq.empty()) << error;
+  const Figures f = Summarize({EvalCaptures(seq, seq / "calib.toml", dir, "")});
   // Measured (seed 3): walk 9/9, forward 6/6; rotation 0.011 / 0.007 deg; 0.77 / 1.07-1.2 s.
   EXPECT_GE(f.captures, 5);
   EXPECT_GE(f.succeeded, 0.95 * f.captures);

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "tests/support/run_command.h"
 #include "tests/support/shared_data.h"
+#include "tests/support/synth_fixture.h"
 #include "tests/support/temp_dir.h"
 
 namespace mm::test {
@@ -61,25 +63,29 @@ TEST(EvalScale, TumKeyframesFromOdometryWithCentimetreNoise) {
 TEST(EvalScale, SynthCorridorWalkFromTheFloorAtEyeHeight) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   const fs::path dir = TempDir("walk");
-  int status = 0;
-  const std::string out =
-      RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +
-                     " --frames 240 --fps 30 --seed 3 --path walk",
-                 &status);
-  ASSERT_EQ(status, 0) << out;
+  // ctest's fixture synth/corridor_walk_seed3 (tests/CMakeLists.txt), shared with
+  // eval_captures_test; the list of every 10th frame (absolute paths) goes to this test's folder.
+  std::string error;
+  const fs::path seq = SynthFixture("MM_SYNTH_CORRIDOR_WALK_SEED3",
+                                    "--scene l-corridor --frames 240 --fps 30 --seed 3 --path walk",
+                                    dir, &error);
+  ASSERT_FALSE(seq.empty()) << error;
   {
-    std::ifstream in(dir / "seq" / "rgb.txt");
-    std::ofstream list(dir / "seq" / "every10.txt");
+    std::ifstream in(seq / "rgb.txt");
+    std::ofstream list(dir / "every10.txt");
     std::string line;
     int n = 0;
     while (std::getline(in, line)) {
       if (line.empty() || line[0] == '#') continue;
-      if (n++ % 10 == 0) list << line << "\n";
+      std::istringstream fields(line);
+      std::string timestamp, file;
+      fields >> timestamp >> file;
+      if (n++ % 10 == 0) list << timestamp << " " << (seq / file).string() << "\n";
     }
   }
-  const json r = Eval("--dataset " + (dir / "seq").string() + " --calib " +
-                          (dir / "seq" / "calib.toml").string() +
-                          " --list every10.txt --scale floor --camera-height-m 1.6",
+  const json r = Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string() +
+                          " --list " + (dir / "every10.txt").string() +
+                          " --scale floor --camera-height-m 1.6",
                       dir / "walk.json");
   const json& s = r["summary"]["scale"];
   std::cout << "[ figures  ] walk, floor at 1.6 m: " << s.dump() << "\n";

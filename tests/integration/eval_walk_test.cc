@@ -11,6 +11,7 @@
 
 #include "tests/support/run_command.h"
 #include "tests/support/shared_data.h"
+#include "tests/support/synth_fixture.h"
 #include "tests/support/temp_dir.h"
 
 namespace mm::test {
@@ -54,15 +55,14 @@ TEST(EvalWalk, TumKeyframesEveryFrameOneSegment) {
 TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   const fs::path dir = FreshTempDir("eval_walk_synth");
-  int status = 0;
-  const std::string out =
-      RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +
-                     " --frames 300 --fps 30 --seed 2 --path walk",
-                 &status);
-  ASSERT_EQ(status, 0) << out;
-  const json r = Eval(
-      "--dataset " + (dir / "seq").string() + " --calib " + (dir / "seq" / "calib.toml").string(),
-      dir / "walk.json");
+  // ctest's fixture synth/corridor_walk_seed2 (tests/CMakeLists.txt), shared with daemon_walk_test.
+  std::string error;
+  const fs::path seq = SynthFixture("MM_SYNTH_CORRIDOR_WALK_SEED2",
+                                    "--scene l-corridor --frames 300 --fps 30 --seed 2 --path walk",
+                                    dir, &error);
+  ASSERT_FALSE(seq.empty()) << error;
+  const json r = Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string(),
+                      dir / "walk.json");
   const json& w = r["summary"]["walk"];
   std::cout << "[ figures  ] " << w.dump() << "\n";
   EXPECT_EQ(w["frames"].get<int>(), 300);
