@@ -15,7 +15,7 @@ using test::ExpectSameResults;
 using test::ReadFile;
 using test::SplitTabs;
 
-TEST(CalibResultsM, EveryManifestFileLoadsWithItsValues) {
+TEST(CalibResultsMData, EveryManifestFileLoadsWithItsValues) {
   const auto dir = test::RequireSharedData("bouguet_calib_results_variants");
   std::ifstream manifest(dir / "MANIFEST.tsv");
   ASSERT_TRUE(manifest);
@@ -77,7 +77,7 @@ TEST(CalibResultsM, EveryManifestFileLoadsWithItsValues) {
   EXPECT_EQ(files, 17);
 }
 
-TEST(CalibResultsM, ReferenceFileValuesAndInactiveImages) {
+TEST(CalibResultsMData, ReferenceFileValuesAndInactiveImages) {
   const auto dir = test::RequireSharedData("bouguet_calib_results_variants");
   const CalibResults ref =
       ParseCalibResultsM(ReadFile(dir / "01_bouguet_calib_example_reference.m"), "01");

@@ -63,7 +63,7 @@ std::pair<std::vector<std::string>, std::vector<cv::Mat>> ReadImages(
   return {names, images};
 }
 
-TEST(Calibrate, BouguetExampleMatchesToolbox) {
+TEST(CalibrateData, BouguetExampleMatchesToolbox) {
   const auto dir = test::RequireSharedData("calib_bouguet_example_chessboard");
   std::vector<std::string> names;
   for (int i = 1; i <= 20; ++i) names.push_back("Image" + std::to_string(i) + ".tif");
@@ -93,7 +93,7 @@ TEST(Calibrate, BouguetExampleMatchesToolbox) {
   EXPECT_EQ(Undistorter(ra.camera).output_camera().alpha_c, ra.camera.alpha_c);
 }
 
-TEST(Calibrate, OpenCvLeftImagesMatchToolbox) {
+TEST(CalibrateData, OpenCvLeftImagesMatchToolbox) {
   const auto dir = test::RequireSharedData("calib_opencv_bouguet_stereo_example");
   std::vector<std::string> names;
   for (int i = 1; i <= 14; ++i) {

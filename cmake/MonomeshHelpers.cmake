@@ -19,7 +19,8 @@ endif()
 # Aggregate targets, so a build can ask for exactly what it needs (the cross stage of .ci/run
 # builds `mm_libraries monomeshd monomesh mm_unit_tests`, not the integration tests or benchmarks):
 #   mm_libraries   every library made by mm_add_library
-#   mm_unit_tests  every test executable made by mm_add_test with the label "unit" (the default)
+#   mm_unit_tests  every test executable made by mm_add_test with the label "unit" (the default):
+#                  a "<folder>_unit_tests" per folder and the slow unit tests' own
 #   mm_fuzzers     every libFuzzer target made by mm_add_fuzzer (the asan preset)
 if(NOT TARGET mm_libraries)
   add_custom_target(mm_libraries)
@@ -48,19 +49,27 @@ else()
 endif()
 option(MM_PCH "Precompiled headers for monomesh's targets (gcc)" ${_mm_pch_default})
 
-# _mm_highway_units_set(TARGET PROPERTY): PROPERTY ON for the target's units that are Highway
-# foreach_target kernels (they re-include themselves once per SIMD target with their own flags).
-function(_mm_highway_units_set target property)
-  get_target_property(sources ${target} SOURCES)
+# _mm_highway_sources_set(SOURCES PROPERTY...): each PROPERTY ON for those of SOURCES that are
+# Highway foreach_target kernels (they re-include themselves once per SIMD target with their own
+# flags).
+function(_mm_highway_sources_set sources)
   foreach(src IN LISTS sources)
     get_filename_component(path ${src} ABSOLUTE)
     if(path MATCHES "\\.cc$" AND EXISTS ${path})
       file(STRINGS ${path} hwy REGEX "foreach_target" LIMIT_COUNT 1)
       if(hwy)
-        set_source_files_properties(${src} PROPERTIES ${property} ON)
+        foreach(property IN LISTS ARGN)
+          set_source_files_properties(${src} PROPERTIES ${property} ON)
+        endforeach()
       endif()
     endif()
   endforeach()
+endfunction()
+
+# _mm_highway_units_set(TARGET PROPERTY): the same for a target's sources.
+function(_mm_highway_units_set target property)
+  get_target_property(sources ${target} SOURCES)
+  _mm_highway_sources_set("${sources}" ${property})
 endfunction()
 
 # _mm_pch(TARGET KIND): KIND is lib, exe or test.
@@ -137,29 +146,18 @@ function(mm_add_executable name)
 endfunction()
 
 # mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...] [TIMEOUT S] [SLOW] [LOCK ...])
-# Registers a GoogleTest binary as the ctest test "<folder>/<name>". A test that needs data it
-# may not find exits 77 and is reported as skipped.
+# Registers GoogleTest sources as the ctest test "<folder>/<name>" and sets MM_TEST_TARGET (in
+# the caller's scope) to the executable that holds them. A test that needs data it may not find
+# exits 77 and is reported as skipped.
 # Speed labels (scripts/test.sh --fast runs label "fast"): a unit test is "fast" unless marked
 # SLOW; every other test is "slow". LOCK names RESOURCE_LOCKs (mm_test_locks below).
+# The fast unit tests of a folder share one executable, "<folder>_unit_tests" (unity-built in
+# batches like the libraries: a folder's tests instantiate the same templates, and one link
+# replaces one per test); each keeps its own ctest entry, which runs that executable on the
+# test's suites (--gtest_filter). A suite name may appear in one of them only (checked here).
+# Slow and integration tests keep an executable each ("<folder>_<name>").
 function(mm_add_test folder name)
   cmake_parse_arguments(ARG "SLOW" "TIMEOUT" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
-  set(target ${folder}_${name})
-  add_executable(${target} ${ARG_SOURCES})
-  target_compile_options(${target} PRIVATE ${MM_WARNINGS})
-  target_link_libraries(${target} PRIVATE ${ARG_LINK} GTest::gtest GTest::gtest_main)
-  target_compile_definitions(${target} PRIVATE
-    MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
-  _mm_pch(${target} test)
-  add_test(NAME ${folder}/${name} COMMAND ${target})
-  if(NOT ARG_TIMEOUT)
-    set(ARG_TIMEOUT 300)
-  endif()
-  # Cross builds run each test under an emulator (qemu-aarch64: scalar code ~14x slower than
-  # native, SIMD loops ~70-120x): the same test gets 4x the time there.
-  if(CMAKE_CROSSCOMPILING AND CMAKE_CROSSCOMPILING_EMULATOR)
-    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")
-  endif()
   set(labels unit)
   if(ARG_LABELS)
     set(labels ${ARG_LABELS})
@@ -170,9 +168,68 @@ function(mm_add_test folder name)
   if("unit" IN_LIST labels AND NOT ARG_SLOW)
     list(APPEND labels fast)
     set(cost 1)
+    set(target ${folder}_unit_tests)
+    set(filter "")
+    foreach(src IN LISTS ARG_SOURCES)
+      get_filename_component(path ${src} ABSOLUTE)
+      file(STRINGS ${path} lines REGEX "^(TEST|TEST_F|TEST_P)\\([A-Za-z0-9_]+,")
+      foreach(line IN LISTS lines)
+        string(REGEX REPLACE "^[A-Z_]+\\(([A-Za-z0-9_]+),.*" "\\1" suite "${line}")
+        get_property(owner GLOBAL PROPERTY MM_TEST_SUITE_${folder}_${suite})
+        if(owner AND NOT owner STREQUAL name)
+          message(FATAL_ERROR "test suite ${suite} is in ${folder}/${owner} and ${folder}/${name} "
+            "(they share ${target}: give one of them another suite name)")
+        endif()
+        set_property(GLOBAL PROPERTY MM_TEST_SUITE_${folder}_${suite} ${name})
+        list(APPEND filter "${suite}.*" "*/${suite}.*")  # TEST_P: Prefix/Suite.Name/N
+      endforeach()
+    endforeach()
+    list(REMOVE_DUPLICATES filter)
+    if(NOT filter)
+      message(FATAL_ERROR "${folder}/${name}: no TEST, TEST_F or TEST_P found in ${ARG_SOURCES}")
+    endif()
+    list(JOIN filter ":" filter)
+    if(NOT TARGET ${target})
+      add_executable(${target})
+      target_compile_options(${target} PRIVATE ${MM_WARNINGS})
+      target_link_libraries(${target} PRIVATE GTest::gtest GTest::gtest_main)
+      target_compile_definitions(${target} PRIVATE
+        MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+        MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+      _mm_pch(${target} test)
+      if(MM_UNITY)
+        set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
+      endif()
+      add_dependencies(mm_unit_tests ${target})
+    endif()
+    target_sources(${target} PRIVATE ${ARG_SOURCES})
+    target_link_libraries(${target} PRIVATE ${ARG_LINK})
+    _mm_highway_sources_set("${ARG_SOURCES}" SKIP_UNITY_BUILD_INCLUSION SKIP_PRECOMPILE_HEADERS)
+    add_test(NAME ${folder}/${name} COMMAND ${target} --gtest_filter=${filter})
   else()
     list(APPEND labels slow)
     set(cost 60)
+    set(target ${folder}_${name})
+    add_executable(${target} ${ARG_SOURCES})
+    target_compile_options(${target} PRIVATE ${MM_WARNINGS})
+    target_link_libraries(${target} PRIVATE ${ARG_LINK} GTest::gtest GTest::gtest_main)
+    target_compile_definitions(${target} PRIVATE
+      MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+      MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+    _mm_pch(${target} test)
+    add_test(NAME ${folder}/${name} COMMAND ${target})
+    if("unit" IN_LIST labels)
+      add_dependencies(mm_unit_tests ${target})
+    endif()
+  endif()
+  set(MM_TEST_TARGET ${target} PARENT_SCOPE)
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  # Cross builds run each test under an emulator (qemu-aarch64: scalar code ~14x slower than
+  # native, SIMD loops ~70-120x): the same test gets 4x the time there.
+  if(CMAKE_CROSSCOMPILING AND CMAKE_CROSSCOMPILING_EMULATOR)
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")
   endif()
   set_tests_properties(${folder}/${name} PROPERTIES
     SKIP_RETURN_CODE 77 TIMEOUT ${ARG_TIMEOUT} LABELS "${labels}" COST ${cost})
@@ -186,9 +243,6 @@ function(mm_add_test folder name)
     list(JOIN CMAKE_CROSSCOMPILING_EMULATOR " " launcher)
     set_tests_properties(${folder}/${name} PROPERTIES ENVIRONMENT
       "MM_LIBCAMERA_WORKER_LAUNCHER=${launcher};MM_TEST_EMULATOR=${launcher}")
-  endif()
-  if("unit" IN_LIST labels)
-    add_dependencies(mm_unit_tests ${target})
   endif()
 endfunction()
 

@@ -19,7 +19,7 @@
 namespace mm {
 namespace {
 
-const std::filesystem::path kData = std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office";
+const std::filesystem::path kOffice = std::filesystem::path(MM_SOURCE_DIR) / "data/tum_office";
 
 struct PairFigures {
   double ncc_a = 0, ncc_b = 0, coverage_b = 0;
@@ -30,9 +30,9 @@ class MeshQuality : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     renderer_ = new Renderer();
-    camera_ = LoadCalibration(kData / "calib.toml");
-    frames_ = ReadTumList(kData / "rgb.txt");
-    const cv::Mat raw = cv::imread((kData / "depth/1341847980.723020.png").string(),
+    camera_ = LoadCalibration(kOffice / "calib.toml");
+    frames_ = ReadTumList(kOffice / "rgb.txt");
+    const cv::Mat raw = cv::imread((kOffice / "depth/1341847980.723020.png").string(),
                                    cv::IMREAD_UNCHANGED);
     raw.convertTo(gt_depth_, CV_32FC1, 1.0 / 5000.0);  // TUM: depth[m] = value / 5000.
   }

@@ -9,6 +9,7 @@
 #include <variant>
 
 #include "capture/source_uri.h"
+#include "tests/support/read_text.h"
 
 namespace mm {
 namespace {
@@ -28,12 +29,7 @@ void ExpectError(const std::string& text, const std::string& needle) {
 
 constexpr const char* kMinimal = "[camera]\nuri = \"replay:data\"\ncalibration = \"c.toml\"\n";
 
-std::string ReadText(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::ReadText;
 
 using Value = std::variant<bool, int64_t, double, std::string>;
 

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <thread>
 
+#include "tests/support/read_text.h"
+
 namespace mm {
 namespace {
 
@@ -29,12 +31,7 @@ std::vector<HookEnd> WaitForEnds(HookRunner* runner, size_t count,
   return ended;
 }
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::ReadText;
 
 // A pid is gone once it has no process, or only a zombie waiting for its (new) parent.
 bool Gone(pid_t pid) {
