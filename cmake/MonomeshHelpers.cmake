@@ -145,7 +145,8 @@ function(mm_add_executable name)
   _mm_unity(${name})
 endfunction()
 
-# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...] [TIMEOUT S] [SLOW] [LOCK ...])
+# mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...] [TIMEOUT S] [SLOW] [LOCK ...]
+#             [GTEST_FILTER F])
 # Registers GoogleTest sources as the ctest test "<folder>/<name>" and sets MM_TEST_TARGET (in
 # the caller's scope) to the executable that holds them. A test that needs data it may not find
 # exits 77 and is reported as skipped.
@@ -155,9 +156,10 @@ endfunction()
 # batches like the libraries: a folder's tests instantiate the same templates, and one link
 # replaces one per test); each keeps its own ctest entry, which runs that executable on the
 # test's suites (--gtest_filter). A suite name may appear in one of them only (checked here).
-# Slow and integration tests keep an executable each ("<folder>_<name>").
+# Slow and integration tests keep an executable each ("<folder>_<name>"), run with GTEST_FILTER
+# when given (a test split across ctest entries).
 function(mm_add_test folder name)
-  cmake_parse_arguments(ARG "SLOW" "TIMEOUT" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
+  cmake_parse_arguments(ARG "SLOW" "TIMEOUT;GTEST_FILTER" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
   set(labels unit)
   if(ARG_LABELS)
     set(labels ${ARG_LABELS})
@@ -217,7 +219,11 @@ function(mm_add_test folder name)
       MM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
       MM_BINARY_DIR="${PROJECT_BINARY_DIR}")
     _mm_pch(${target} test)
-    add_test(NAME ${folder}/${name} COMMAND ${target})
+    if(ARG_GTEST_FILTER)
+      add_test(NAME ${folder}/${name} COMMAND ${target} --gtest_filter=${ARG_GTEST_FILTER})
+    else()
+      add_test(NAME ${folder}/${name} COMMAND ${target})
+    endif()
     if("unit" IN_LIST labels)
       add_dependencies(mm_unit_tests ${target})
     endif()
@@ -251,12 +257,19 @@ endfunction()
 #   daemon  a monomeshd end to end on a real-time camera, several threads each: two at once
 #           starve each other's gate and worker and time out on a 2-core machine
 #   timing  the test measures wall-clock intervals or waits on timers of its own
+#   quiet   the test may not share the machine with the long walk's daemon
+#           (integration/daemon_walk_long_test, which holds only this lock: it has no deadline,
+#           so it may run beside the stress test, which holds daemon and timing, or beside any
+#           test without a lock). Every test given "timing" holds "quiet" as well.
 function(mm_test_locks test)
   get_test_property(${test} RESOURCE_LOCK locks)
   if(NOT locks)
     set(locks "")
   endif()
   list(APPEND locks ${ARGN})
+  if("timing" IN_LIST locks)
+    list(APPEND locks quiet)
+  endif()
   list(REMOVE_DUPLICATES locks)
   set_tests_properties(${test} PROPERTIES RESOURCE_LOCK "${locks}")
 endfunction()
