@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <random>
 
 #include "calib/undistort.h"
@@ -183,8 +185,40 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     return image;
   };
 
+  // Each frame decoded (and undistorted) once, and its SIFT computed once with the time it
+  // took: a frame is B, A, a middle frame and a view before A of several pairs. Frames older
+  // than the current A's horizon are dropped.
+  struct CachedFrame {
+    cv::Mat image;
+    std::optional<Features> features;
+    double sift_wall_s = 0, sift_cpu_s = 0;
+  };
+  std::map<size_t, CachedFrame> cache;
+  const auto frame_at = [&](size_t k) -> CachedFrame& {
+    auto it = cache.find(k);
+    if (it == cache.end()) it = cache.emplace(k, CachedFrame{load(frames[k].path), std::nullopt}).first;
+    return it->second;
+  };
+  const auto features_of = [&](size_t k) -> const CachedFrame& {
+    CachedFrame& f = frame_at(k);
+    if (!f.features) {
+      const double cpu_start = CpuSeconds();
+      const auto wall_start = std::chrono::steady_clock::now();
+      f.features = ExtractKeyframeFeatures(f.image, options.pair);
+      f.sift_wall_s =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+      f.sift_cpu_s = CpuSeconds() - cpu_start;
+    }
+    return f;
+  };
+  const double horizon_s = options.views_before_a ? options.recent_frames.horizon_s() : 0.0;
+
   const auto step = static_cast<size_t>(options.step);
   for (size_t i = 0; i + step < frames.size(); ++i) {
+    while (!cache.empty() && cache.begin()->first < i &&
+           frames[cache.begin()->first].timestamp_s < frames[i].timestamp_s - horizon_s) {
+      cache.erase(cache.begin());
+    }
     PairEval p;
     p.index_a = static_cast<int>(i);
     p.index_b = static_cast<int>(i + step);
@@ -192,8 +226,8 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     p.time_b_s = frames[i + step].timestamp_s;
     p.image_a = frames[i].path.string();
     p.image_b = frames[i + step].path.string();
-    const cv::Mat image_a = load(frames[i].path);
-    const cv::Mat image_b = load(frames[i + step].path);
+    const cv::Mat image_a = frame_at(i).image;
+    const cv::Mat image_b = frame_at(i + step).image;
     if (image_a.empty() || image_b.empty()) {
       p.failure_reason = "cannot read " + (image_a.empty() ? p.image_a : p.image_b);
       result.pairs.push_back(p);
@@ -201,21 +235,18 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     }
     // The pair is reconstructed once, from A's features (the appliance's case: A's SIFT runs
     // while it waits for B); the time from two images is A's SIFT plus that.
-    const double cpu_a_start = CpuSeconds();
-    const auto wall_a_start = std::chrono::steady_clock::now();
-    const Features features_a = ExtractKeyframeFeatures(image_a, options.pair);
-    const double features_a_wall_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_a_start).count();
-    const double features_a_cpu_s = CpuSeconds() - cpu_a_start;
+    const CachedFrame& a = features_of(i);
+    const Features& features_a = *a.features;
     // The middle frames between A and B, matched to A (outside the timing: the appliance has
     // the gate's tracks); the reconstruction takes the one nearest halfway.
     std::vector<SourceView> between;
     if (options.intermediate_view && options.pair.mesh_mode == MeshMode::kDense) {
       // The middle frame (both middle ones for an odd step).
       for (size_t m = i + step / 2; m <= i + (step + 1) / 2 && m > i && m < i + step; ++m) {
-        const cv::Mat image_m = load(frames[m].path);
-        if (!image_m.empty()) {
-          between.push_back(MatchSourceView(features_a, image_m, options.pair));
+        const CachedFrame& middle = frame_at(m);
+        if (!middle.image.empty()) {
+          between.push_back(
+              MatchSourceView(features_a, middle.image, *features_of(m).features, options.pair));
         }
       }
     }
@@ -223,20 +254,27 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       // The frames the daemon would hold before A (it tracks A's corners back to them; here,
       // as for the frames between, SIFT matches with A stand in for the tracks).
       RecentFrames recent(options.recent_frames);
-      const double horizon_s = options.recent_frames.horizon_s();
+      std::map<double, size_t> index_at;
       for (size_t j = 0; j < i; ++j) {
         // Only the frames it would keep are read.
         if (frames[j].timestamp_s < frames[i].timestamp_s - horizon_s ||
             !recent.Keeps(frames[j].timestamp_s)) {
           continue;
         }
-        const cv::Mat image_j = load(frames[j].path);
-        if (!image_j.empty()) recent.Add(image_j, frames[j].timestamp_s);
+        const cv::Mat& image_j = frame_at(j).image;
+        if (!image_j.empty()) {
+          recent.Add(image_j, frames[j].timestamp_s);
+          index_at[frames[j].timestamp_s] = j;
+        }
       }
-      for (const cv::Mat& image_before : recent.BeforeA(frames[i].timestamp_s)) {
-        between.push_back(MatchSourceView(features_a, image_before, options.pair));
+      for (const double time_before : recent.BeforeATimes(frames[i].timestamp_s)) {
+        const size_t j = index_at.at(time_before);
+        between.push_back(MatchSourceView(features_a, frame_at(j).image,
+                                          *features_of(j).features, options.pair));
       }
     }
+    const double features_a_wall_s = a.sift_wall_s;
+    const double features_a_cpu_s = a.sift_cpu_s;
     const double cpu_start = CpuSeconds();
     PairReconstruction r =
         ReconstructPair(features_a, image_a, image_b, *used, options.pair, {}, between);

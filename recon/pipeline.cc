@@ -92,9 +92,14 @@ Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& option
 
 SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
                            const PairOptions& options) {
+  if (image.empty()) return SourceView{image, {}};
+  return MatchSourceView(features_a, image, ExtractKeyframeFeatures(image, options), options);
+}
+
+SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
+                           const Features& features, const PairOptions& options) {
   SourceView view{image, {}};
   if (image.empty()) return view;
-  const Features features = ExtractKeyframeFeatures(image, options);
   for (const Match& m :
        MatchDescriptors(features_a.descriptors, features.descriptors, options.match)) {
     const cv::Point2f& pa = features_a.keypoints[static_cast<size_t>(m.index_a)].pt;

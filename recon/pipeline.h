@@ -156,6 +156,9 @@ Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& option
 /// keyframe list in `monomesh eval`).
 SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
                            const PairOptions& options);
+/// As above, with the frame's features already extracted (ExtractKeyframeFeatures).
+SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
+                           const Features& features, const PairOptions& options);
 
 /// The source views the dense stage sweeps beside B.
 struct ChosenSourceViews {

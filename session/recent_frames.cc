@@ -36,8 +36,8 @@ void RecentFrames::Add(const cv::Mat& frame, double time_s) {
   }
 }
 
-std::vector<cv::Mat> RecentFrames::BeforeA(double time_a_s) const {
-  std::vector<cv::Mat> out;
+std::vector<const RecentFrames::Kept*> RecentFrames::SelectBeforeA(double time_a_s) const {
+  std::vector<const Kept*> out;
   const Kept* last = nullptr;
   for (const double offset : options_.seconds_before_a) {
     const double wanted = time_a_s - offset;
@@ -51,10 +51,22 @@ std::vector<cv::Mat> RecentFrames::BeforeA(double time_a_s) const {
     // Each frame once, older with each offset (the offsets ascend).
     if (nearest && std::abs(nearest->time_s - wanted) <= 0.5 * offset &&
         (!last || nearest->time_s < last->time_s)) {
-      out.push_back(nearest->frame);
+      out.push_back(nearest);
       last = nearest;
     }
   }
+  return out;
+}
+
+std::vector<cv::Mat> RecentFrames::BeforeA(double time_a_s) const {
+  std::vector<cv::Mat> out;
+  for (const Kept* k : SelectBeforeA(time_a_s)) out.push_back(k->frame);
+  return out;
+}
+
+std::vector<double> RecentFrames::BeforeATimes(double time_a_s) const {
+  std::vector<double> out;
+  for (const Kept* k : SelectBeforeA(time_a_s)) out.push_back(k->time_s);
   return out;
 }
 

@@ -50,6 +50,8 @@ class RecentFrames {
   /// The kept frames nearest each of seconds_before_a before `time_a_s`, newest first, each
   /// at most once.
   [[nodiscard]] std::vector<cv::Mat> BeforeA(double time_a_s) const;
+  /// The times of BeforeA's frames, in its order.
+  [[nodiscard]] std::vector<double> BeforeATimes(double time_a_s) const;
 
   [[nodiscard]] size_t size() const { return frames_.size(); }
 
@@ -58,6 +60,7 @@ class RecentFrames {
     double time_s;
     cv::Mat frame;
   };
+  [[nodiscard]] std::vector<const Kept*> SelectBeforeA(double time_a_s) const;
   RecentFramesOptions options_;
   std::deque<Kept> frames_;
 };
