@@ -204,6 +204,8 @@ function(mm_add_test folder name)
       endif()
       add_dependencies(mm_unit_tests ${target})
     endif()
+    set_property(GLOBAL APPEND PROPERTY MM_UNIT_TEST_TARGETS ${target})
+    set_property(GLOBAL APPEND PROPERTY MM_UNIT_TEST_FILTER_${target} ${filter})
     target_sources(${target} PRIVATE ${ARG_SOURCES})
     target_link_libraries(${target} PRIVATE ${ARG_LINK})
     _mm_highway_sources_set("${ARG_SOURCES}" SKIP_UNITY_BUILD_INCLUSION SKIP_PRECOMPILE_HEADERS)
@@ -250,6 +252,23 @@ function(mm_add_test folder name)
     set_tests_properties(${folder}/${name} PROPERTIES ENVIRONMENT
       "MM_LIBCAMERA_WORKER_LAUNCHER=${launcher};MM_TEST_EMULATOR=${launcher}")
   endif()
+endfunction()
+
+# mm_check_unit_test_filters(): a test "repo/test_filters/<target>" per shared unit-test
+# executable, failing when one of its tests is in none of its ctest entries
+# (tests/check_test_filters.cmake). Called once every folder has added its tests.
+function(mm_check_unit_test_filters)
+  get_property(targets GLOBAL PROPERTY MM_UNIT_TEST_TARGETS)
+  list(REMOVE_DUPLICATES targets)
+  list(JOIN CMAKE_CROSSCOMPILING_EMULATOR " " emulator)
+  foreach(target IN LISTS targets)
+    get_property(filters GLOBAL PROPERTY MM_UNIT_TEST_FILTER_${target})
+    list(JOIN filters ":" filter)
+    add_test(NAME repo/test_filters/${target}
+      COMMAND ${CMAKE_COMMAND} -DBINARY=$<TARGET_FILE:${target}> -DFILTER=${filter}
+        "-DEMULATOR=${emulator}" -P ${PROJECT_SOURCE_DIR}/tests/check_test_filters.cmake)
+    set_tests_properties(repo/test_filters/${target} PROPERTIES LABELS "unit;fast" TIMEOUT 120)
+  endforeach()
 endfunction()
 
 # mm_test_locks(TEST LOCK ...): ctest runs tests in parallel (scripts/test.sh: -j over every
