@@ -64,32 +64,38 @@ TEST(ReplaySource, LoopsWithIncreasingSequence) {
   }
 }
 
+// Plays the first pass of `n` frames, then removes the files: the next read either comes from
+// what the first pass decoded or fails naming the file.
+ReadStatus ReadAfterFirstPassWithoutFiles(const std::filesystem::path& dir, int n,
+                                          const ReplayOptions& options, Frame* frame,
+                                          std::string* error) {
+  ReplaySource source(dir, options);
+  EXPECT_EQ(source.Open(), "");
+  for (int i = 0; i < n; ++i) {
+    Frame first;
+    EXPECT_EQ(source.Read(&first, 100ms, error), ReadStatus::kFrame) << *error;
+  }
+  std::filesystem::remove_all(dir / "rgb");
+  return source.Read(frame, 100ms, error);
+}
+
 // A loop at its recorded rate that fits kReplayLoopCacheBytes decodes each file once: its
 // later passes play on with the files gone. One that does not fit, or at the maximum rate,
 // reads the files again on every pass.
 TEST(ReplaySource, LoopDecodesEachFileOnceWhenItsFramesFitTheCache) {
-  const auto dir = MakeDataset("loopcache", 3);
   ReplayOptions options;
   options.speed = 100.0;
   options.loop = true;
-  ReplaySource source(dir, options);
-  ASSERT_EQ(source.Open(), "");
+  Frame frame;
   std::string error;
-  for (int i = 0; i < 3; ++i) {
-    Frame frame;
-    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
-  }
-  std::filesystem::remove_all(dir / "rgb");
-  for (int i = 3; i < 9; ++i) {
-    Frame frame;
-    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
-    EXPECT_EQ(frame.image.at<cv::Vec3b>(0, 0)[0], i % 3);
-    EXPECT_EQ(frame.sequence, static_cast<uint64_t>(i));
-  }
+  ASSERT_EQ(ReadAfterFirstPassWithoutFiles(MakeDataset("loopcache", 3), 3, options, &frame, &error),
+            ReadStatus::kFrame)
+      << error;
+  EXPECT_EQ(frame.image.at<cv::Vec3b>(0, 0)[0], 0);
+  EXPECT_EQ(frame.sequence, 3u);
 }
 
 TEST(ReplaySource, LoopTooLargeForTheCacheReadsTheFilesEachPass) {
-  const auto dir = MakeDataset("loopnocache", 2);
   ReplayOptions options;
   options.speed = 100.0;
   options.loop = true;
@@ -97,35 +103,23 @@ TEST(ReplaySource, LoopTooLargeForTheCacheReadsTheFilesEachPass) {
   options.width = 4000;
   options.height = 1500;
   ASSERT_GT(size_t{4000} * 1500 * 3 * 2, kReplayLoopCacheBytes);
-  ReplaySource source(dir, options);
-  ASSERT_EQ(source.Open(), "");
-  std::string error;
-  for (int i = 0; i < 2; ++i) {
-    Frame frame;
-    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
-    EXPECT_EQ(frame.image.cols, 4000);
-  }
-  std::filesystem::remove_all(dir / "rgb");
   Frame frame;
-  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kError);
+  std::string error;
+  EXPECT_EQ(ReadAfterFirstPassWithoutFiles(MakeDataset("loopnocache", 2), 2, options, &frame,
+                                           &error),
+            ReadStatus::kError);
   EXPECT_NE(error.find("cannot decode image"), std::string::npos) << error;
 }
 
 TEST(ReplaySource, LoopAtTheMaximumRateReadsTheFilesEachPass) {
-  const auto dir = MakeDataset("loopmax", 2);
   ReplayOptions options;
   options.realtime = false;
   options.loop = true;
-  ReplaySource source(dir, options);
-  ASSERT_EQ(source.Open(), "");
-  std::string error;
-  for (int i = 0; i < 2; ++i) {
-    Frame frame;
-    ASSERT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kFrame) << error;
-  }
-  std::filesystem::remove_all(dir / "rgb");
   Frame frame;
-  EXPECT_EQ(source.Read(&frame, 100ms, &error), ReadStatus::kError);
+  std::string error;
+  EXPECT_EQ(
+      ReadAfterFirstPassWithoutFiles(MakeDataset("loopmax", 2), 2, options, &frame, &error),
+      ReadStatus::kError);
 }
 
 TEST(ReplaySource, ResizesToTheRequestedSize) {
