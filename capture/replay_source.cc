@@ -41,8 +41,7 @@ std::string ReplaySource::Open() {
   next_ = 0;
   sequence_ = 0;
   pass_offset_s_ = 0.0;
-  cache_decoded_ = options_.loop && options_.realtime;
-  decoded_.assign(cache_decoded_ ? frames_.size() : 0, cv::Mat());
+  decoded_.assign(options_.loop && options_.realtime ? frames_.size() : 0, cv::Mat());
   start_ns_ = MonotonicNowNs();
   return {};
 }
@@ -75,25 +74,22 @@ ReadStatus ReplaySource::Read(Frame* frame, std::chrono::milliseconds timeout, s
       std::this_thread::sleep_for(wait);
     }
   }
-  cv::Mat image = cache_decoded_ ? decoded_[next_] : cv::Mat();
+  cv::Mat image = decoded_.empty() ? cv::Mat() : decoded_[next_];
   if (image.empty()) {
-    image = cv::imread(item.path.string(),
-                       options_.gray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+    image = cv::imread(item.path.string(), options_.gray ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
     if (image.empty()) {
       *error = "replay: cannot decode image " + item.path.string();
       ++next_;  // Skip it: a corrupt file must not stall the stream.
       return ReadStatus::kError;
     }
     if (options_.width > 0 && (image.cols != options_.width || image.rows != options_.height)) {
-      cv::resize(image, image, cv::Size(options_.width, options_.height), 0, 0,
-                 cv::INTER_LINEAR);
+      cv::resize(image, image, cv::Size(options_.width, options_.height), 0, 0, cv::INTER_LINEAR);
     }
-    if (cache_decoded_) {
+    if (!decoded_.empty()) {
       if (image.total() * image.elemSize() * frames_.size() <= kReplayLoopCacheBytes) {
         decoded_[next_] = image;
       } else {
-        cache_decoded_ = false;
-        decoded_ = {};
+        decoded_ = {};  // For good: the loop does not fit.
       }
     }
   }

@@ -56,10 +56,10 @@ class ReplaySource final : public FrameSource {
   uint64_t sequence_ = 0;
   int64_t start_ns_ = 0;        // Wall time of frame 0 of the current pass.
   double pass_offset_s_ = 0.0;  // Dataset time added per completed loop pass.
-  // With loop and realtime: the decoded frames of the first pass, shared (frames are read-only once
-  // published), while they fit kReplayLoopCacheBytes; cleared for good when they do not.
+  // With loop and realtime: a slot per frame for its decoded image of the first pass, shared
+  // (frames are read-only once published); empty when not caching, or for good once the
+  // frames do not fit kReplayLoopCacheBytes.
   std::vector<cv::Mat> decoded_;
-  bool cache_decoded_ = false;
 };
 
 }  // namespace mm

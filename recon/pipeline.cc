@@ -92,7 +92,6 @@ Features ExtractKeyframeFeatures(const cv::Mat& image, const PairOptions& option
 
 SourceView MatchSourceView(const Features& features_a, const cv::Mat& image,
                            const PairOptions& options) {
-  if (image.empty()) return SourceView{image, {}};
   return MatchSourceView(features_a, image, ExtractKeyframeFeatures(image, options), options);
 }
 
