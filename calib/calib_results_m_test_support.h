@@ -11,15 +11,9 @@
 #include <vector>
 
 #include "calib/calib_results_m.h"
+#include "tests/support/read_file.h"
 
 namespace mm::test {
-
-inline std::string ReadFile(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 inline std::vector<std::string> SplitTabs(const std::string& line) {
   std::vector<std::string> out;

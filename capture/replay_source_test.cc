@@ -105,9 +105,9 @@ TEST(ReplaySource, LoopTooLargeForTheCacheReadsTheFilesEachPass) {
   ASSERT_GT(size_t{4000} * 1500 * 3 * 2, kReplayLoopCacheBytes);
   Frame frame;
   std::string error;
-  EXPECT_EQ(ReadAfterFirstPassWithoutFiles(MakeDataset("loopnocache", 2), 2, options, &frame,
-                                           &error),
-            ReadStatus::kError);
+  EXPECT_EQ(
+      ReadAfterFirstPassWithoutFiles(MakeDataset("loopnocache", 2), 2, options, &frame, &error),
+      ReadStatus::kError);
   EXPECT_NE(error.find("cannot decode image"), std::string::npos) << error;
 }
 
@@ -117,9 +117,8 @@ TEST(ReplaySource, LoopAtTheMaximumRateReadsTheFilesEachPass) {
   options.loop = true;
   Frame frame;
   std::string error;
-  EXPECT_EQ(
-      ReadAfterFirstPassWithoutFiles(MakeDataset("loopmax", 2), 2, options, &frame, &error),
-      ReadStatus::kError);
+  EXPECT_EQ(ReadAfterFirstPassWithoutFiles(MakeDataset("loopmax", 2), 2, options, &frame, &error),
+            ReadStatus::kError);
 }
 
 TEST(ReplaySource, ResizesToTheRequestedSize) {

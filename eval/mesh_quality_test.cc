@@ -32,8 +32,8 @@ class MeshQuality : public ::testing::Test {
     renderer_ = new Renderer();
     camera_ = LoadCalibration(kOffice / "calib.toml");
     frames_ = ReadTumList(kOffice / "rgb.txt");
-    const cv::Mat raw = cv::imread((kOffice / "depth/1341847980.723020.png").string(),
-                                   cv::IMREAD_UNCHANGED);
+    const cv::Mat raw =
+        cv::imread((kOffice / "depth/1341847980.723020.png").string(), cv::IMREAD_UNCHANGED);
     raw.convertTo(gt_depth_, CV_32FC1, 1.0 / 5000.0);  // TUM: depth[m] = value / 5000.
   }
   static void TearDownTestSuite() {

@@ -196,7 +196,9 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
   std::map<size_t, CachedFrame> cache;
   const auto frame_at = [&](size_t k) -> CachedFrame& {
     auto it = cache.find(k);
-    if (it == cache.end()) it = cache.emplace(k, CachedFrame{load(frames[k].path), std::nullopt}).first;
+    if (it == cache.end()) {
+      it = cache.emplace(k, CachedFrame{load(frames[k].path), std::nullopt}).first;
+    }
     return it->second;
   };
   const auto features_of = [&](size_t k) -> const CachedFrame& {
@@ -269,8 +271,8 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
       }
       for (const double time_before : recent.BeforeATimes(frames[i].timestamp_s)) {
         const size_t j = index_at.at(time_before);
-        between.push_back(MatchSourceView(features_a, frame_at(j).image,
-                                          *features_of(j).features, options.pair));
+        between.push_back(
+            MatchSourceView(features_a, frame_at(j).image, *features_of(j).features, options.pair));
       }
     }
     const double features_a_wall_s = a.sift_wall_s;

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <thread>
 
+#include "tests/support/read_file.h"
+
 namespace mm {
 namespace {
 
@@ -23,12 +25,7 @@ fs::path FreshDir(const std::string& name) {
   return dir;
 }
 
-std::string ReadAll(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::ReadFile;
 
 TEST(Spool, CommitsWholeEntryWithIncreasingSequence) {
   const fs::path dir = FreshDir("commit");
@@ -37,7 +34,7 @@ TEST(Spool, CommitsWholeEntryWithIncreasingSequence) {
   const SpoolCommit a = spool.Commit({{"report.json", "{}"}, {"mesh.ply", "ply"}}, 0);
   ASSERT_TRUE(a.ok) << a.error;
   EXPECT_EQ(a.entry.filename().string(), "19700101T000000Z-000001");
-  EXPECT_EQ(ReadAll(a.entry / "mesh.ply"), "ply");
+  EXPECT_EQ(ReadFile(a.entry / "mesh.ply"), "ply");
   EXPECT_EQ(a.bytes, 5u);
   const SpoolCommit b = spool.Commit({{"report.json", "{}"}}, 60);
   ASSERT_TRUE(b.ok);
@@ -66,8 +63,8 @@ TEST(Spool, RetentionKeepsNewest) {
   for (int i = 0; i < 4; ++i) ASSERT_TRUE(spool.Commit({{"f", std::to_string(i)}}, i).ok);
   const auto entries = spool.Entries();
   ASSERT_EQ(entries.size(), 2u);
-  EXPECT_EQ(ReadAll(entries[0] / "f"), "2");
-  EXPECT_EQ(ReadAll(entries[1] / "f"), "3");
+  EXPECT_EQ(ReadFile(entries[0] / "f"), "2");
+  EXPECT_EQ(ReadFile(entries[1] / "f"), "3");
   // The two entries and `latest`.
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 3);
 }
@@ -85,7 +82,7 @@ TEST(Spool, LatestSymlinkNamesTheNewestEntry) {
     EXPECT_EQ(c.error, "");
     ASSERT_TRUE(fs::is_symlink(dir / "latest"));
     EXPECT_EQ(fs::read_symlink(dir / "latest"), c.entry.filename());  // Relative.
-    EXPECT_EQ(ReadAll(dir / "latest" / "f"), std::to_string(i));
+    EXPECT_EQ(ReadFile(dir / "latest" / "f"), std::to_string(i));
     EXPECT_FALSE(fs::exists(fs::symlink_status(dir / ".tmp-latest")));
   }
   EXPECT_EQ(spool.Entries().size(), 2u);  // Retention counts entries only.
@@ -111,7 +108,7 @@ TEST(Spool, LatestSymlinkNamesTheNewestEntry) {
   const SpoolCommit foreign = again.Commit({{"f", "4"}}, 4);
   ASSERT_TRUE(foreign.ok);
   EXPECT_NE(foreign.error.find("not a symlink"), std::string::npos) << foreign.error;
-  EXPECT_EQ(ReadAll(dir / "latest" / "keep.txt"), "operator data");
+  EXPECT_EQ(ReadFile(dir / "latest" / "keep.txt"), "operator data");
   EXPECT_EQ(again.Entries().size(), 2u);
 }
 
@@ -137,14 +134,14 @@ TEST(Spool, RetentionAndRecoveryLeaveForeignNamesAlone) {
   for (int i = 0; i < 4; ++i) ASSERT_TRUE(spool.Commit({{"f", std::to_string(i)}}, i).ok);
   const auto entries = spool.Entries();
   ASSERT_EQ(entries.size(), 2u);
-  EXPECT_EQ(ReadAll(entries[0] / "f"), "2");
-  EXPECT_EQ(ReadAll(entries[1] / "f"), "3");
-  EXPECT_EQ(ReadAll(dir / "archive" / "keep.txt"), "operator data");
+  EXPECT_EQ(ReadFile(entries[0] / "f"), "2");
+  EXPECT_EQ(ReadFile(entries[1] / "f"), "3");
+  EXPECT_EQ(ReadFile(dir / "archive" / "keep.txt"), "operator data");
   EXPECT_TRUE(fs::exists(dir / "notes.txt"));
   EXPECT_TRUE(fs::is_directory(dir / "20240101T000000Z-backup"));
   EXPECT_TRUE(fs::is_directory(dir / ".tmp-mine"));
   EXPECT_TRUE(fs::is_symlink(dir / "19990101T000000Z-000001"));
-  EXPECT_EQ(ReadAll(outside / "x"), "x");
+  EXPECT_EQ(ReadFile(outside / "x"), "x");
   Spool again({.dir = dir, .max_entries = 2});
   ASSERT_EQ(again.Recover(&removed), "");
   EXPECT_EQ(removed, 0);
@@ -218,7 +215,7 @@ TEST(Spool, FailedWriteIsReportedAndEarlierEntriesSurvive) {
   EXPECT_EQ(WEXITSTATUS(status), 0) << "the failed write was not reported with the file name";
   const auto entries = spool.Entries();
   ASSERT_EQ(entries.size(), 1u);
-  EXPECT_EQ(ReadAll(entries[0] / "a"), "first");
+  EXPECT_EQ(ReadFile(entries[0] / "a"), "first");
   // The entry and `latest`, which still names it.
   EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
   EXPECT_EQ(fs::read_symlink(dir / "latest"), entries[0].filename());

@@ -9,7 +9,7 @@
 #include <variant>
 
 #include "capture/source_uri.h"
-#include "tests/support/read_text.h"
+#include "tests/support/read_file.h"
 
 namespace mm {
 namespace {
@@ -29,7 +29,7 @@ void ExpectError(const std::string& text, const std::string& needle) {
 
 constexpr const char* kMinimal = "[camera]\nuri = \"replay:data\"\ncalibration = \"c.toml\"\n";
 
-using test::ReadText;
+using test::ReadFile;
 
 using Value = std::variant<bool, int64_t, double, std::string>;
 
@@ -138,7 +138,7 @@ TEST(DaemonConfig, ExampleConfigListsEveryKeyWithTheCodesDefault) {
 // The example documents every camera scheme the capture registry knows and both calibration
 // formats.
 TEST(DaemonConfig, ExampleConfigDocumentsEverySchemeAndCalibrationFormat) {
-  const std::string text = ReadText(kExample);
+  const std::string text = ReadFile(kExample);
   ASSERT_FALSE(FrameSourceSchemes().empty());
   for (const std::string& scheme : FrameSourceSchemes()) {
     // A comment line naming the scheme: "#", blanks, "<scheme>:".
@@ -159,7 +159,7 @@ TEST(DaemonConfig, ExampleConfigDocumentsEverySchemeAndCalibrationFormat) {
 // StateDirectory, and the unit names no other writable path.
 TEST(DaemonConfig, DefaultSpoolIsInTheUnitsStateDirectory) {
   const std::string unit =
-      ReadText(std::filesystem::path(MM_SOURCE_DIR) / "systemd/monomeshd.service");
+      ReadFile(std::filesystem::path(MM_SOURCE_DIR) / "systemd/monomeshd.service");
   const std::string key = "\nStateDirectory=";
   const size_t at = unit.find(key);
   ASSERT_NE(at, std::string::npos) << unit;

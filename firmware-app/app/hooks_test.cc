@@ -9,7 +9,7 @@
 #include <sstream>
 #include <thread>
 
-#include "tests/support/read_text.h"
+#include "tests/support/read_file.h"
 
 namespace mm {
 namespace {
@@ -31,11 +31,11 @@ std::vector<HookEnd> WaitForEnds(HookRunner* runner, size_t count,
   return ended;
 }
 
-using test::ReadText;
+using test::ReadFile;
 
 // A pid is gone once it has no process, or only a zombie waiting for its (new) parent.
 bool Gone(pid_t pid) {
-  const std::string stat = ReadText("/proc/" + std::to_string(pid) + "/stat");
+  const std::string stat = ReadFile("/proc/" + std::to_string(pid) + "/stat");
   if (stat.empty()) return true;
   const size_t paren = stat.rfind(')');
   return paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'Z';
@@ -86,7 +86,7 @@ TEST_F(HookRunnerTest, OnEntryGetsTheEntryAsItsLastArgumentAndInItsEnvironment) 
   EXPECT_EQ(ended[0].how, "exited 0");
   EXPECT_EQ(ended[0].name, "on_entry");
   EXPECT_FALSE(ended[0].timed_out);
-  EXPECT_EQ(ReadText(out), "/spool/entry one|/spool/entry one|7|on_entry");
+  EXPECT_EQ(ReadFile(out), "/spool/entry one|/spool/entry one|7|on_entry");
   EXPECT_EQ(runner.running(), 0u);
   fs::remove_all(dir);
 }
@@ -117,7 +117,7 @@ TEST_F(HookRunnerTest, AHangingHookIsKilledAtItsLimitWithWhatItStarted) {
   EXPECT_NE(ended[0].how.find("signal 9"), std::string::npos) << ended[0].how;
   EXPECT_GE(ended[0].seconds, 0.3);
   EXPECT_LT(ended[0].seconds, 5.0);
-  const pid_t child = std::stoi(ReadText(pid_file));
+  const pid_t child = std::stoi(ReadFile(pid_file));
   bool gone = false;
   for (int i = 0; i < 200 && !gone; ++i, std::this_thread::sleep_for(10ms)) gone = Gone(child);
   EXPECT_TRUE(gone) << "the hook's background child " << child << " outlived it";

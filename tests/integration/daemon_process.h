@@ -22,6 +22,7 @@
 
 #include "app/control.h"
 #include "entry/entry.h"
+#include "tests/support/read_file.h"
 #include "tests/support/run_command.h"
 
 extern char** environ;
@@ -37,13 +38,6 @@ inline const char* const kEntryFiles[] = {
     "mesh.glb",       "mesh.obj",         "mesh.mtl",   "texture.jpg",  "mesh.ply",
     "points.ply",     "cameras.txt",      "images.txt", "points3D.txt", "preview.png",
     "keyframe_b.jpg", "calibration.toml", "report.json"};
-
-inline std::string ReadAll(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 /// A camera URI other than the replay of a folder (e.g. "test:still?fps=30").
 struct CameraUri {
@@ -135,7 +129,7 @@ class DaemonProcess {
       }
       std::this_thread::sleep_for(25ms);
     }
-    FAIL() << "daemon did not become ready; log:\n" << ReadAll(log);
+    FAIL() << "daemon did not become ready; log:\n" << ReadFile(log);
   }
 
   pid_t pid() const { return pid_; }
@@ -169,7 +163,7 @@ class DaemonProcess {
 
   fs::path socket() const { return dir_ / "control.sock"; }
   fs::path spool() const { return dir_ / "spool"; }
-  std::string log() const { return ReadAll(dir_ / "daemon.log"); }
+  std::string log() const { return ReadFile(dir_ / "daemon.log"); }
   const fs::path& dir() const { return dir_; }
 
  private:

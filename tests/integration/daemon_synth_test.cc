@@ -105,7 +105,7 @@ TEST(DaemonSynth, WalkMeshesMatchTheExactGroundTruth) {
                        eval_json.string(),
                    &status);
     ASSERT_EQ(status, 0) << eval_out;
-    const json eval = json::parse(ReadAll(eval_json));
+    const json eval = json::parse(ReadFile(eval_json));
     const json& pair = eval["pairs"][0];
     std::cout << "[ figures  ] mesh " << k << ": frames "
               << a.source.substr(seq.string().size() + 5) << " -> "

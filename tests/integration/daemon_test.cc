@@ -61,10 +61,10 @@ TEST(Daemon, TriggerProducesCompleteEntryMatchingGroundTruth) {
                           report.keyframe_a.capture_realtime_ns),
       static_cast<double>(report.keyframe_b.capture_time_ns - report.keyframe_a.capture_time_ns),
       1e6);
-  EXPECT_EQ(report.boot_id, ReadAll("/proc/sys/kernel/random/boot_id").substr(0, 36));
+  EXPECT_EQ(report.boot_id, ReadFile("/proc/sys/kernel/random/boot_id").substr(0, 36));
   EXPECT_EQ(report.schema_version, kEntryReportSchemaVersion);
   EXPECT_GT(report.counts.mesh_vertices, 200u);
-  const std::string ply = ReadAll(entry / "mesh.ply");
+  const std::string ply = ReadFile(entry / "mesh.ply");
   const auto pos = ply.find("element vertex ");
   ASSERT_NE(pos, std::string::npos);
   EXPECT_GT(std::stoi(ply.substr(pos + 15)), 200);
@@ -223,7 +223,7 @@ TEST(Daemon, BrokenCalibrationExits78NamingTheFile) {
   std::ofstream(calib)
       << "[camera]\nimage_size = [640, 480]\nfc = [500]\ncc = [1, 2]\nkc = [0,0,0,0]\n";
   std::ofstream(daemon.dir() / "monomeshd.toml", std::ios::app);
-  std::string text = ReadAll(daemon.dir() / "monomeshd.toml");
+  std::string text = ReadFile(daemon.dir() / "monomeshd.toml");
   text.replace(text.find((kData / "calib.toml").string()), (kData / "calib.toml").string().size(),
                calib.string());
   std::ofstream(daemon.dir() / "monomeshd.toml") << text;
@@ -284,7 +284,7 @@ TEST(Daemon, SocketPathHoldingAFileOrFolderIsLeftAloneAndExits78) {
   EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
   EXPECT_NE(log.find(daemon.socket().string() + ": exists and is not a socket"), std::string::npos)
       << log;
-  EXPECT_EQ(ReadAll(daemon.socket()), "precious");
+  EXPECT_EQ(ReadFile(daemon.socket()), "precious");
   fs::remove(daemon.socket());
   fs::create_directories(daemon.socket() / "inside");
   log.clear();
@@ -301,14 +301,14 @@ TEST(Daemon, SpoolPathHoldingAFileExits78AndLeavesItAlone) {
   EXPECT_EQ(RunDaemonExpectingExit(daemon.dir() / "monomeshd.toml", &log), 78) << log;
   EXPECT_NE(log.find("spool " + daemon.spool().string() + ": cannot create"), std::string::npos)
       << log;
-  EXPECT_EQ(ReadAll(daemon.spool()), "precious");
+  EXPECT_EQ(ReadFile(daemon.spool()), "precious");
 }
 
 // [control] group and mode apply to the socket file before the daemon listens; a group that
 // does not exist is a config error naming the key (exit 78), and nothing is left at the path.
 TEST(Daemon, ControlSocketGroupAndModeAreApplied) {
   DaemonProcess daemon("sockmode", "rate=max&loop=1");
-  const std::string config = ReadAll(daemon.dir() / "monomeshd.toml");
+  const std::string config = ReadFile(daemon.dir() / "monomeshd.toml");
   auto with_access = [&](const std::string& access) {
     std::string text = config;
     text.replace(text.find(kControlAccess), kControlAccess.size(), access);
@@ -557,7 +557,7 @@ TEST(Daemon, HooksRunAfterCapturesAndOneThatHangsNeverDelaysTheNext) {
   // The second entry's hook starts once its entry is committed, which the trigger's reply
   // can precede: wait (bounded) until both hooks have written their line.
   const auto recorded_all = [&] {
-    const std::string text = ReadAll(daemon.dir() / "entries.txt");
+    const std::string text = ReadFile(daemon.dir() / "entries.txt");
     return std::all_of(entries.begin(), entries.end(), [&](const std::string& entry) {
       return text.find(entry + "\n") != std::string::npos;
     });
@@ -566,7 +566,7 @@ TEST(Daemon, HooksRunAfterCapturesAndOneThatHangsNeverDelaysTheNext) {
   while (std::chrono::steady_clock::now() < hooks_deadline && !recorded_all()) {
     std::this_thread::sleep_for(100ms);
   }
-  std::string recorded = ReadAll(daemon.dir() / "entries.txt");
+  std::string recorded = ReadFile(daemon.dir() / "entries.txt");
   for (const std::string& entry : entries) {
     EXPECT_NE(recorded.find(entry + "\n"), std::string::npos) << recorded;
   }
@@ -584,7 +584,7 @@ TEST(Daemon, HooksRunAfterCapturesAndOneThatHangsNeverDelaysTheNext) {
     std::this_thread::sleep_for(100ms);
   }
   EXPECT_NE(failing.log().find("failed: exited 3"), std::string::npos) << failing.log();
-  EXPECT_EQ(ReadAll(failing.dir() / "reason.txt"), result["error"].get<std::string>() + "\n");
+  EXPECT_EQ(ReadFile(failing.dir() / "reason.txt"), result["error"].get<std::string>() + "\n");
 }
 
 TEST(Daemon, OdometryStreamedOnTheControlSocketScalesTheEntry) {
@@ -745,7 +745,7 @@ TEST(Daemon, MissingGpioChipIsReportedWithTheChip) {
 
 TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
   DaemonProcess daemon("nocamera", "rate=max");
-  std::string text = ReadAll(daemon.dir() / "monomeshd.toml");
+  std::string text = ReadFile(daemon.dir() / "monomeshd.toml");
   text.replace(text.find("replay:") + 7, kData.string().size(), "/nonexistent/cam");
   std::ofstream(daemon.dir() / "monomeshd.toml") << text;
   std::string log;

@@ -23,9 +23,7 @@ namespace {
 const fs::path& Corridor() {
   static const fs::path seq = [] {
     std::string error;
-    fs::path made = SynthFixture(
-        "MM_SYNTH_CORRIDOR_WALK_SEED2", "--scene l-corridor --frames 300 --fps 30 --seed 2 --path walk",
-        FreshTempDir("walk_corridor"), &error);
+    fs::path made = SynthFixture(kCorridorWalkSeed2, FreshTempDir("walk_corridor"), &error);
     EXPECT_FALSE(made.empty()) << error;
     return made;
   }();
@@ -149,7 +147,7 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
   // The map mesh: parts textured by their keyframes, a surface of thousands of triangles.
   Mesh map;
   cv::Mat texture;
-  EXPECT_EQ(DecodeGlb(ReadAll(entry / "map.glb"), &map, &texture), "");
+  EXPECT_EQ(DecodeGlb(ReadFile(entry / "map.glb"), &map, &texture), "");
   EXPECT_FALSE(texture.empty());
   EXPECT_GE(report.counts.mesh_triangles, 2000);
   EXPECT_GE(report.counts.mesh_parts, 3);
@@ -167,7 +165,7 @@ TEST(DaemonWalk, ReplayedCorridorIsOneMapThatEvalSpoolChecks) {
                                       &status);
   ASSERT_EQ(status, 0) << text;
   std::cout << text;
-  const json eval = json::parse(ReadAll(out));
+  const json eval = json::parse(ReadFile(out));
   EXPECT_EQ(eval["summary"]["walks_evaluated"], 1);
   // In metres: the similarity that aligns the trajectory to the truth has scale 1.
   EXPECT_EQ(report.scale.source, "floor") << report.scale.why_not;

@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "tests/support/run_command.h"
+#include "tests/support/shared_data.h"
 #include "tests/support/synth_fixture.h"
 #include "tests/support/temp_dir.h"
-#include "tests/support/shared_data.h"
 
 namespace mm::test {
 namespace {
@@ -131,7 +131,7 @@ void SynthPath(const std::string& path) {
   // eval_scale_test; the forward path is this test's alone.
   std::string error;
   const fs::path seq =
-      SynthFixture(path == "walk" ? "MM_SYNTH_CORRIDOR_WALK_SEED3" : nullptr,
+      SynthFixture(path == "walk" ? kCorridorWalkSeed3.env_name : nullptr,
                    "--scene l-corridor --frames 240 --fps 30 --seed 3 --path " + path, dir, &error);
   ASSERT_FALSE(seq.empty()) << error;
   const Figures f = Summarize({EvalCaptures(seq, seq / "calib.toml", dir, "")});

@@ -66,9 +66,7 @@ TEST(EvalScale, SynthCorridorWalkFromTheFloorAtEyeHeight) {
   // ctest's fixture synth/corridor_walk_seed3 (tests/CMakeLists.txt), shared with
   // eval_captures_test; the list of every 10th frame (absolute paths) goes to this test's folder.
   std::string error;
-  const fs::path seq = SynthFixture("MM_SYNTH_CORRIDOR_WALK_SEED3",
-                                    "--scene l-corridor --frames 240 --fps 30 --seed 3 --path walk",
-                                    dir, &error);
+  const fs::path seq = SynthFixture(kCorridorWalkSeed3, dir, &error);
   ASSERT_FALSE(seq.empty()) << error;
   {
     std::ifstream in(seq / "rgb.txt");
@@ -83,10 +81,10 @@ TEST(EvalScale, SynthCorridorWalkFromTheFloorAtEyeHeight) {
       if (n++ % 10 == 0) list << timestamp << " " << (seq / file).string() << "\n";
     }
   }
-  const json r = Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string() +
-                          " --list " + (dir / "every10.txt").string() +
-                          " --scale floor --camera-height-m 1.6",
-                      dir / "walk.json");
+  const json r =
+      Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string() + " --list " +
+               (dir / "every10.txt").string() + " --scale floor --camera-height-m 1.6",
+           dir / "walk.json");
   const json& s = r["summary"]["scale"];
   std::cout << "[ figures  ] walk, floor at 1.6 m: " << s.dump() << "\n";
   // The floor from the room's planes, its normal from the walls and every horizontal plane

@@ -57,9 +57,7 @@ TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   const fs::path dir = FreshTempDir("eval_walk_synth");
   // ctest's fixture synth/corridor_walk_seed2 (tests/CMakeLists.txt), shared with daemon_walk_test.
   std::string error;
-  const fs::path seq = SynthFixture("MM_SYNTH_CORRIDOR_WALK_SEED2",
-                                    "--scene l-corridor --frames 300 --fps 30 --seed 2 --path walk",
-                                    dir, &error);
+  const fs::path seq = SynthFixture(kCorridorWalkSeed2, dir, &error);
   ASSERT_FALSE(seq.empty()) << error;
   const json r = Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string(),
                       dir / "walk.json");

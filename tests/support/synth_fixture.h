@@ -13,6 +13,19 @@
 
 namespace mm::test {
 
+/// A fixture of tests/CMakeLists.txt: the variable that names its folder, and the arguments it
+/// gives `monomesh synth` (the same there).
+struct SynthSequence {
+  const char* env_name;
+  const char* synth_args;
+};
+inline constexpr SynthSequence kCorridorWalkSeed2{
+    "MM_SYNTH_CORRIDOR_WALK_SEED2",
+    "--scene l-corridor --frames 300 --fps 30 --seed 2 --path walk"};
+inline constexpr SynthSequence kCorridorWalkSeed3{
+    "MM_SYNTH_CORRIDOR_WALK_SEED3",
+    "--scene l-corridor --frames 240 --fps 30 --seed 3 --path walk"};
+
 /// The sequence of fixture `env_name` (null: none), or `monomesh synth <synth_args>` made into
 /// `fallback_dir`/seq; "" (and `*error` set) when synth failed.
 inline std::filesystem::path SynthFixture(const char* env_name, const std::string& synth_args,
@@ -33,6 +46,12 @@ inline std::filesystem::path SynthFixture(const char* env_name, const std::strin
     return {};
   }
   return seq;
+}
+
+inline std::filesystem::path SynthFixture(const SynthSequence& sequence,
+                                          const std::filesystem::path& fallback_dir,
+                                          std::string* error) {
+  return SynthFixture(sequence.env_name, sequence.synth_args, fallback_dir, error);
 }
 
 }  // namespace mm::test

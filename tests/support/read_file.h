@@ -1,5 +1,5 @@
 #pragma once
-// A whole (small) text file as a string, "" when it cannot be read.
+// A whole (small) file as a string, byte for byte; "" when it cannot be read.
 
 #include <filesystem>
 #include <fstream>
@@ -8,8 +8,8 @@
 
 namespace mm::test {
 
-inline std::string ReadText(const std::filesystem::path& p) {
-  std::ifstream in(p);
+inline std::string ReadFile(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
