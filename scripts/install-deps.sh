@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages monomesh needs, idempotently: packages already present are
 # skipped, so a second run costs one dpkg query per package. sudo is used when not root.
-# Usage: scripts/install-deps.sh [GROUP ...]   (groups: scripts/deps/<GROUP>.txt; base always)
+# Usage: scripts/install-deps.sh [--check] [GROUP ...]   (groups: scripts/deps/<GROUP>.txt;
+#        base always). --check installs nothing: exit 0 when every package is present, 1 if not.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
+check=0
+if [ "${1:-}" = "--check" ]; then check=1; shift; fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -25,6 +28,10 @@ for p in "${pkgs[@]}"; do
   fi
 done
 
+if [ "$check" -eq 1 ]; then
+  [ "${#missing[@]}" -eq 0 ]
+  exit
+fi
 if [ "${#missing[@]}" -gt 0 ]; then
   echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
   export DEBIAN_FRONTEND=noninteractive

@@ -10,8 +10,29 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
 case "${1:-}" in
-  "")     scripts/install-deps.sh test browser
+  "")     # The build's packages first (present after scripts/demo.sh). The test-only groups
+          # (test, browser: readers, lintian, Chromium) are needed by ctest alone, so apt
+          # installs them while the tests compile.
+          scripts/install-deps.sh
+          if [ "$(id -u)" -ne 0 ] && ! scripts/install-deps.sh --check test browser &&
+             ! sudo -n true 2>/dev/null; then
+            sudo -v  # asks for the password here, not in the middle of the compiler's output
+          fi
+          mkdir -p build
+          deps_log=build/install-deps-test.log
+          echo "test: installing the test packages (groups test, browser) while compiling;" \
+               "apt's output: $deps_log"
+          scripts/install-deps.sh test browser >"$deps_log" 2>&1 &
+          deps=$!
           scripts/build.sh default
+          deps_wait=$SECONDS
+          if ! wait "$deps"; then
+            cat "$deps_log" >&2
+            echo "test: installing the test packages failed (above)" >&2
+            exit 1
+          fi
+          echo "test: test packages: $(tail -n 1 "$deps_log")" \
+               "(waited $((SECONDS - deps_wait)) s for them after the compile)"
           labels=() ;;
   --fast) scripts/build.sh default mm_unit_tests
           labels=(-L fast) ;;
