@@ -156,10 +156,12 @@ endfunction()
 # batches like the libraries: a folder's tests instantiate the same templates, and one link
 # replaces one per test); each keeps its own ctest entry, which runs that executable on the
 # test's suites (--gtest_filter). A suite name may appear in one of them only (checked here).
-# Slow and integration tests keep an executable each ("<folder>_<name>"), run with GTEST_FILTER
-# when given (a test split across ctest entries).
+# Slow and integration tests keep an executable each ("<folder>_<name>") unless given
+# SHARED <group>: then they share "<folder>_<group>" the same way (e.g. the integration tests
+# other than daemon_test, which the sanitizer stages build alone). GTEST_FILTER (a negative
+# filter, "-Suite.Name") splits a test across ctest entries.
 function(mm_add_test folder name)
-  cmake_parse_arguments(ARG "SLOW" "TIMEOUT;GTEST_FILTER" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
+  cmake_parse_arguments(ARG "SLOW" "TIMEOUT;GTEST_FILTER;SHARED" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
   set(labels unit)
   if(ARG_LABELS)
     set(labels ${ARG_LABELS})
@@ -167,10 +169,16 @@ function(mm_add_test folder name)
   # COST: on a first run (no Testing/Temporary/CTestCostData.txt yet) ctest starts the slow
   # tests first, so the long serialised daemon tests overlap the unit tests instead of
   # trailing them; later runs order by the measured times.
+  set(cost 60)
   if("unit" IN_LIST labels AND NOT ARG_SLOW)
     list(APPEND labels fast)
     set(cost 1)
-    set(target ${folder}_unit_tests)
+    set(ARG_SHARED unit_tests)
+  else()
+    list(APPEND labels slow)
+  endif()
+  if(ARG_SHARED)
+    set(target ${folder}_${ARG_SHARED})
     set(filter "")
     foreach(src IN LISTS ARG_SOURCES)
       get_filename_component(path ${src} ABSOLUTE)
@@ -202,17 +210,17 @@ function(mm_add_test folder name)
       if(MM_UNITY)
         set_target_properties(${target} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
       endif()
+    endif()
+    if("unit" IN_LIST labels)
       add_dependencies(mm_unit_tests ${target})
     endif()
-    set_property(GLOBAL APPEND PROPERTY MM_UNIT_TEST_TARGETS ${target})
-    set_property(GLOBAL APPEND PROPERTY MM_UNIT_TEST_FILTER_${target} ${filter})
+    set_property(GLOBAL APPEND PROPERTY MM_SHARED_TEST_TARGETS ${target})
+    set_property(GLOBAL APPEND PROPERTY MM_SHARED_TEST_FILTER_${target} ${filter})
     target_sources(${target} PRIVATE ${ARG_SOURCES})
     target_link_libraries(${target} PRIVATE ${ARG_LINK})
     _mm_highway_sources_set("${ARG_SOURCES}" SKIP_UNITY_BUILD_INCLUSION SKIP_PRECOMPILE_HEADERS)
-    add_test(NAME ${folder}/${name} COMMAND ${target} --gtest_filter=${filter})
+    add_test(NAME ${folder}/${name} COMMAND ${target} --gtest_filter=${filter}${ARG_GTEST_FILTER})
   else()
-    list(APPEND labels slow)
-    set(cost 60)
     set(target ${folder}_${name})
     add_executable(${target} ${ARG_SOURCES})
     target_compile_options(${target} PRIVATE ${MM_WARNINGS})
@@ -254,20 +262,26 @@ function(mm_add_test folder name)
   endif()
 endfunction()
 
-# mm_check_unit_test_filters(): a test "repo/test_filters/<target>" per shared unit-test
+# mm_check_shared_test_filters(): a test "repo/test_filters/<target>" per shared test
 # executable, failing when one of its tests is in none of its ctest entries
 # (tests/check_test_filters.cmake). Called once every folder has added its tests.
-function(mm_check_unit_test_filters)
-  get_property(targets GLOBAL PROPERTY MM_UNIT_TEST_TARGETS)
+function(mm_check_shared_test_filters)
+  get_property(targets GLOBAL PROPERTY MM_SHARED_TEST_TARGETS)
   list(REMOVE_DUPLICATES targets)
   list(JOIN CMAKE_CROSSCOMPILING_EMULATOR " " emulator)
   foreach(target IN LISTS targets)
-    get_property(filters GLOBAL PROPERTY MM_UNIT_TEST_FILTER_${target})
+    get_property(filters GLOBAL PROPERTY MM_SHARED_TEST_FILTER_${target})
     list(JOIN filters ":" filter)
     add_test(NAME repo/test_filters/${target}
       COMMAND ${CMAKE_COMMAND} -DBINARY=$<TARGET_FILE:${target}> -DFILTER=${filter}
         "-DEMULATOR=${emulator}" -P ${PROJECT_SOURCE_DIR}/tests/check_test_filters.cmake)
-    set_tests_properties(repo/test_filters/${target} PROPERTIES LABELS "unit;fast" TIMEOUT 120)
+    # Labelled like the executable's tests: `scripts/test.sh --fast` builds the unit tests only.
+    if(target MATCHES "_unit_tests$")
+      set(labels "unit;fast")
+    else()
+      set(labels "slow")
+    endif()
+    set_tests_properties(repo/test_filters/${target} PROPERTIES LABELS "${labels}" TIMEOUT 120)
   endforeach()
 endfunction()
 

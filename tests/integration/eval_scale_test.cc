@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "tests/support/run_command.h"
+#include "tests/support/monomesh_eval.h"
 #include "tests/support/shared_data.h"
 #include "tests/support/synth_fixture.h"
 #include "tests/support/temp_dir.h"
@@ -23,14 +23,8 @@ using json = nlohmann::json;
 
 fs::path TempDir(const std::string& name) { return FreshTempDir("eval_scale_" + name); }
 
-json Eval(const std::string& args, const fs::path& json_file) {
-  int status = 0;
-  const std::string out =
-      RunCommand(Monomesh() + " eval --quiet --json " + json_file.string() + " " + args, &status);
-  std::cout << out;
-  EXPECT_EQ(status, 0) << out;
-  std::ifstream in(json_file);
-  return json::parse(in);
+json ScaleEval(const std::string& args, const fs::path& json_file) {
+  return RunMonomeshEval("--quiet " + args, json_file);
 }
 
 TEST(EvalScale, TumKeyframesFromOdometryWithCentimetreNoise) {
@@ -41,7 +35,7 @@ TEST(EvalScale, TumKeyframesFromOdometryWithCentimetreNoise) {
                              " --calib " MM_SOURCE_DIR
                              "/data/tum_office/calib.toml --list keyframes_1hz.txt --scale "
                              "odometry --odom-seed 1 ";
-  const json noisy = Eval(common + "--odom-noise-m 0.01", dir / "noisy.json");
+  const json noisy = ScaleEval(common + "--odom-noise-m 0.01", dir / "noisy.json");
   const json& s = noisy["summary"]["scale"];
   std::cout << "[ figures  ] 1 cm odometry noise: " << s.dump() << "\n";
   EXPECT_EQ(s["pairs"].get<int>(), 16);
@@ -52,7 +46,7 @@ TEST(EvalScale, TumKeyframesFromOdometryWithCentimetreNoise) {
     EXPECT_GT(p["scale"]["uncertainty_rel"].get<double>(), 0.0);
   }
   // Exact odometry: the ground truth's own baseline, so only the plumbing can err.
-  const json exact = Eval(common + "--odom-noise-m 0", dir / "exact.json");
+  const json exact = ScaleEval(common + "--odom-noise-m 0", dir / "exact.json");
   EXPECT_LE(exact["summary"]["scale"]["rel_err_median"].get<double>(), 0.005);
   fs::remove_all(dir);
 }
@@ -81,10 +75,10 @@ TEST(EvalScale, SynthCorridorWalkFromTheFloorAtEyeHeight) {
       if (n++ % 10 == 0) list << timestamp << " " << (seq / file).string() << "\n";
     }
   }
-  const json r =
-      Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string() + " --list " +
-               (dir / "every10.txt").string() + " --scale floor --camera-height-m 1.6",
-           dir / "walk.json");
+  const json r = ScaleEval(
+      "--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string() + " --list " +
+          (dir / "every10.txt").string() + " --scale floor --camera-height-m 1.6",
+      dir / "walk.json");
   const json& s = r["summary"]["scale"];
   std::cout << "[ figures  ] walk, floor at 1.6 m: " << s.dump() << "\n";
   // The floor from the room's planes, its normal from the walls and every horizontal plane

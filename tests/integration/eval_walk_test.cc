@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "tests/support/run_command.h"
+#include "tests/support/monomesh_eval.h"
 #include "tests/support/shared_data.h"
 #include "tests/support/synth_fixture.h"
 #include "tests/support/temp_dir.h"
@@ -20,14 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-json Eval(const std::string& args, const fs::path& json_file) {
-  int status = 0;
-  const std::string out =
-      RunCommand(Monomesh() + " eval --walk --json " + json_file.string() + " " + args, &status);
-  std::cout << out;
-  EXPECT_EQ(status, 0) << out;
-  std::ifstream in(json_file);
-  return json::parse(in);
+json WalkEval(const std::string& args, const fs::path& json_file) {
+  return RunMonomeshEval("--walk " + args, json_file);
 }
 
 TEST(EvalWalk, TumKeyframesEveryFrameOneSegment) {
@@ -35,9 +29,9 @@ TEST(EvalWalk, TumKeyframesEveryFrameOneSegment) {
   const fs::path data = RequireSharedData("tum_fr3_long_office_household");
   const fs::path dir = FreshTempDir("eval_walk_tum");
   const json r =
-      Eval("--every-frame --dataset " + data.string() +
-               " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list keyframes_1hz.txt",
-           dir / "walk.json");
+      WalkEval("--every-frame --dataset " + data.string() +
+                   " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list keyframes_1hz.txt",
+               dir / "walk.json");
   const json& w = r["summary"]["walk"];
   std::cout << "[ figures  ] " << w.dump() << "\n";
   EXPECT_EQ(w["keyframes"].get<int>(), 17);
@@ -59,8 +53,8 @@ TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   std::string error;
   const fs::path seq = SynthFixture(kCorridorWalkSeed2, dir, &error);
   ASSERT_FALSE(seq.empty()) << error;
-  const json r = Eval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string(),
-                      dir / "walk.json");
+  const json r = WalkEval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string(),
+                          dir / "walk.json");
   const json& w = r["summary"]["walk"];
   std::cout << "[ figures  ] " << w.dump() << "\n";
   EXPECT_EQ(w["frames"].get<int>(), 300);
@@ -130,10 +124,10 @@ TEST(EvalWalk, AForeignKeyframeIsLostAndTheWalkGoesOn) {
   }
   ASSERT_FALSE(foreign.empty());
   WriteListWithInsert(data, dir / "list.txt", 1341847990.2, dir / "seq" / foreign);
-  const json r = Eval("--every-frame --dataset " + data.string() +
-                          " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list " +
-                          (dir / "list.txt").string(),
-                      dir / "walk.json");
+  const json r = WalkEval("--every-frame --dataset " + data.string() +
+                              " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list " +
+                              (dir / "list.txt").string(),
+                          dir / "walk.json");
   const json& w = r["summary"]["walk"];
   std::cout << "[ figures  ] " << w.dump() << "\n";
   ASSERT_EQ(w["keyframes"].get<int>(), 18);
@@ -159,10 +153,10 @@ TEST(EvalWalk, ARevisitedViewIsRelocalised) {
   WriteListWithInsert(data, dir / "list.txt", 1341847981.19,
                       data / "rgb" / "1341847981.190636.png");
   ASSERT_TRUE(fs::exists(data / "rgb" / "1341847981.190636.png"));
-  const json r = Eval("--every-frame --dataset " + data.string() +
-                          " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list " +
-                          (dir / "list.txt").string(),
-                      dir / "walk.json");
+  const json r = WalkEval("--every-frame --dataset " + data.string() +
+                              " --calib " MM_SOURCE_DIR "/data/tum_office/calib.toml --list " +
+                              (dir / "list.txt").string(),
+                          dir / "walk.json");
   const json& w = r["summary"]["walk"];
   std::cout << "[ figures  ] " << w.dump() << "\n";
   ASSERT_EQ(w["keyframes"].get<int>(), 18);
@@ -186,7 +180,7 @@ TEST(EvalWalk, RedKitchenHandHeldWalkIsOneMap) {
   ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
   const fs::path data = RequireSharedData("redkitchen_walk_0_499");
   const fs::path dir = FreshTempDir("eval_walk_redkitchen");
-  const json r = Eval(
+  const json r = WalkEval(
       "--dataset " + data.string() + " --calib " + (data / "Calib_Results.m").string() + " --quiet",
       dir / "walk.json");
   const json& w = r["summary"]["walk"];
