@@ -17,6 +17,7 @@
 
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "recon/matcher.cc"
+#include <hwy/aligned_allocator.h>
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
@@ -92,74 +93,172 @@ namespace hn = hwy::HWY_NAMESPACE;
 int64_t AllPairsBest(const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
                      matcher_detail::BestTwo* best_a, matcher_detail::BestOne* best_b);
 
-// Dot product of one int16 row with int32 accumulation (two accumulators: the pairwise
-// multiply-add may split the products between them on some targets).
-template <class D16, class D32>
-HWY_INLINE int32_t Dot(D16 d16, D32 d32, const int16_t* x, const int16_t* y, size_t stride) {
-  auto s0 = hn::Zero(d32), s1 = hn::Zero(d32);
-  for (size_t k = 0; k < stride; k += hn::Lanes(d16)) {
-    s0 = hn::ReorderWidenMulAccumulate(d32, hn::LoadU(d16, x + k), hn::LoadU(d16, y + k), s0,
-                                       s1);
-  }
-  return hn::GetLane(hn::SumOfLanes(d32, hn::Add(s0, s1)));
-}
-
-// Squared distance from the norms and the dot product: exact integers, below 2^24.
-HWY_INLINE float Distance(int32_t norm_a, int32_t norm_b, int32_t dot) {
-  return static_cast<float>(norm_a + norm_b - 2 * dot);
-}
-
-// All-pairs dot products in tiles of 4 rows of A against one row of B; rows of A are visited
-// in increasing order for every B, so the tie rule matches the scalar loop.
+#if HWY_TARGET == HWY_SCALAR
+// One lane: the dot products one pair at a time.
 int64_t AllPairsBest(const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
                      matcher_detail::BestTwo* best_a, matcher_detail::BestOne* best_b) {
-  const hn::ScalableTag<int16_t> d16;
-  const hn::Repartition<int32_t, decltype(d16)> d32;
-  const size_t lanes = hn::Lanes(d16);
-  const size_t stride = a.stride;
-  const size_t na = a.rows, nb = b.rows;
-  size_t i = 0;
-  for (; i + 4 <= na; i += 4) {
-    const int16_t* a0 = a.data.data() + i * stride;
-    const int16_t* a1 = a0 + stride;
-    const int16_t* a2 = a1 + stride;
-    const int16_t* a3 = a2 + stride;
-    const int32_t n0 = a.norms[i], n1 = a.norms[i + 1], n2 = a.norms[i + 2],
-                  n3 = a.norms[i + 3];
-    for (size_t j = 0; j < nb; ++j) {
-      const int16_t* bj = b.data.data() + j * stride;
-      auto s0 = hn::Zero(d32), s1 = hn::Zero(d32), s2 = hn::Zero(d32), s3 = hn::Zero(d32);
-      auto t0 = hn::Zero(d32), t1 = hn::Zero(d32), t2 = hn::Zero(d32), t3 = hn::Zero(d32);
-      for (size_t k = 0; k < stride; k += lanes) {
-        const auto vb = hn::LoadU(d16, bj + k);
-        s0 = hn::ReorderWidenMulAccumulate(d32, hn::LoadU(d16, a0 + k), vb, s0, t0);
-        s1 = hn::ReorderWidenMulAccumulate(d32, hn::LoadU(d16, a1 + k), vb, s1, t1);
-        s2 = hn::ReorderWidenMulAccumulate(d32, hn::LoadU(d16, a2 + k), vb, s2, t2);
-        s3 = hn::ReorderWidenMulAccumulate(d32, hn::LoadU(d16, a3 + k), vb, s3, t3);
+  for (size_t i = 0; i < a.rows; ++i) {
+    for (size_t j = 0; j < b.rows; ++j) {
+      int32_t dot = 0;
+      for (size_t k = 0; k < a.stride; ++k) {
+        dot += int32_t{a.data[i * a.stride + k]} * b.data[j * b.stride + k];
       }
-      const int32_t nbj = b.norms[j];
-      const int jj = static_cast<int>(j);
-      matcher_detail::BestOne* bb = best_b + j;
-      matcher_detail::Update(Distance(n0, nbj, hn::GetLane(hn::SumOfLanes(d32, hn::Add(s0, t0)))),
-                             static_cast<int>(i), jj, best_a + i, bb);
-      matcher_detail::Update(Distance(n1, nbj, hn::GetLane(hn::SumOfLanes(d32, hn::Add(s1, t1)))),
-                             static_cast<int>(i + 1), jj, best_a + i + 1, bb);
-      matcher_detail::Update(Distance(n2, nbj, hn::GetLane(hn::SumOfLanes(d32, hn::Add(s2, t2)))),
-                             static_cast<int>(i + 2), jj, best_a + i + 2, bb);
-      matcher_detail::Update(Distance(n3, nbj, hn::GetLane(hn::SumOfLanes(d32, hn::Add(s3, t3)))),
-                             static_cast<int>(i + 3), jj, best_a + i + 3, bb);
-    }
-  }
-  for (; i < na; ++i) {
-    const int16_t* ai = a.data.data() + i * stride;
-    for (size_t j = 0; j < nb; ++j) {
-      const int32_t dot = Dot(d16, d32, ai, b.data.data() + j * stride, stride);
-      matcher_detail::Update(Distance(a.norms[i], b.norms[j], dot), static_cast<int>(i),
-                             static_cast<int>(j), best_a + i, best_b + j);
+      matcher_detail::Update(static_cast<float>(a.norms[i] + b.norms[j] - 2 * dot),
+                             static_cast<int>(i), static_cast<int>(j), best_a + i, best_b + j);
     }
   }
   return HWY_TARGET;
 }
+#else
+
+// Squared distances are below 128 * 255^2 < 2^23; B's padding rows get a norm that puts them
+// above every real distance, and "none yet" is above that.
+constexpr int32_t kPaddingNorm = 1 << 28;
+constexpr int32_t kNone = std::numeric_limits<int32_t>::max();
+
+// B transposed in blocks of as many rows as a vector has int32 lanes (L): for each pair of
+// dimensions (2p, 2p+1), the L rows' two values side by side, so that one int16 multiply-add
+// against A's pair broadcast gives the L rows' partial dot products in their own lanes (no
+// horizontal sums; the layout of BLAS-like GEMM kernels). Rows past B's end are zero.
+template <class D32>
+hwy::AlignedFreeUniquePtr<int16_t[]> PackB(D32 d32, const matcher_detail::PaddedRows& b,
+                                           size_t blocks,
+                                           hwy::AlignedFreeUniquePtr<int32_t[]>* norms) {
+  const size_t lanes = hn::Lanes(d32);
+  const size_t pairs = b.stride / 2;
+  auto packed = hwy::AllocateAligned<int16_t>(blocks * lanes * b.stride);
+  *norms = hwy::AllocateAligned<int32_t>(blocks * lanes);
+  for (size_t block = 0; block < blocks; ++block) {
+    int16_t* out = packed.get() + block * lanes * b.stride;
+    for (size_t lane = 0; lane < lanes; ++lane) {
+      const size_t row = block * lanes + lane;
+      (*norms)[row] = row < b.rows ? b.norms[row] : kPaddingNorm;
+      const int16_t* in = row < b.rows ? b.data.data() + row * b.stride : nullptr;
+      for (size_t p = 0; p < pairs; ++p) {
+        out[(p * lanes + lane) * 2] = in != nullptr ? in[2 * p] : 0;
+        out[(p * lanes + lane) * 2 + 1] = in != nullptr ? in[2 * p + 1] : 0;
+      }
+    }
+  }
+  return packed;
+}
+
+// Rows i0 .. i0+R-1 of A against every row of B. Each lane keeps the best two distances of its
+// share of B (rows j = lane mod L) and the first row giving the best; B's per-row best (over
+// A's rows in increasing order, strict <: the lowest i wins ties) is updated in place.
+template <size_t R, class D16, class D32>
+HWY_INLINE void RowsAgainstB(D16 d16, D32 d32, const matcher_detail::PaddedRows& a, size_t i0,
+                             const int16_t* packed_b, const int32_t* norms_b, size_t blocks,
+                             int32_t* best_b_d, int32_t* best_b_i,
+                             matcher_detail::BestTwo* best_a) {
+  using V = hn::Vec<D32>;
+  const size_t lanes = hn::Lanes(d32);
+  const size_t pairs = a.stride / 2;
+  const int16_t* rows[R];
+  V d1[R], d2[R], j1[R];
+  HWY_UNROLL(4)
+  for (size_t r = 0; r < R; ++r) {
+    rows[r] = a.data.data() + (i0 + r) * a.stride;
+    d1[r] = d2[r] = hn::Set(d32, kNone);
+    j1[r] = hn::Set(d32, -1);
+  }
+  const V iota = hn::Iota(d32, 0);
+  for (size_t block = 0; block < blocks; ++block) {
+    const int16_t* pb = packed_b + block * lanes * a.stride;
+    V sum0[R], sum1[R];
+    HWY_UNROLL(4)
+    for (size_t r = 0; r < R; ++r) sum0[r] = sum1[r] = hn::Zero(d32);
+    for (size_t p = 0; p < pairs; ++p) {
+      const auto vb = hn::Load(d16, pb + p * 2 * lanes);
+      HWY_UNROLL(4)
+      for (size_t r = 0; r < R; ++r) {
+        int32_t pair;  // A's values at 2p and 2p+1, as one int32 to broadcast.
+        std::memcpy(&pair, rows[r] + 2 * p, sizeof(pair));
+        const auto va = hn::BitCast(d16, hn::Set(d32, pair));
+        sum0[r] = hn::ReorderWidenMulAccumulate(d32, va, vb, sum0[r], sum1[r]);
+      }
+    }
+    const V norm_b = hn::Load(d32, norms_b + block * lanes);
+    const V j = hn::Add(iota, hn::Set(d32, static_cast<int32_t>(block * lanes)));
+    V bd = hn::Load(d32, best_b_d + block * lanes);
+    V bi = hn::Load(d32, best_b_i + block * lanes);
+    HWY_UNROLL(4)
+    for (size_t r = 0; r < R; ++r) {
+      const V dot = hn::RearrangeToOddPlusEven(sum0[r], sum1[r]);
+      const V dist = hn::Sub(hn::Add(hn::Set(d32, a.norms[i0 + r]), norm_b), hn::Add(dot, dot));
+      const auto better = hn::Lt(dist, d1[r]);
+      d2[r] = hn::IfThenElse(better, d1[r], hn::Min(d2[r], dist));
+      d1[r] = hn::IfThenElse(better, dist, d1[r]);
+      j1[r] = hn::IfThenElse(better, j, j1[r]);
+      const auto better_b = hn::Lt(dist, bd);
+      bd = hn::IfThenElse(better_b, dist, bd);
+      bi = hn::IfThenElse(better_b, hn::Set(d32, static_cast<int32_t>(i0 + r)), bi);
+    }
+    hn::Store(bd, d32, best_b_d + block * lanes);
+    hn::Store(bi, d32, best_b_i + block * lanes);
+  }
+  // The lanes' best twos into the row's: the best is the least d1 (the lowest row on ties), the
+  // second the least of every d2 and of the d1s but that one.
+  constexpr size_t kMaxLanes = hn::MaxLanes(D32());
+  HWY_ALIGN int32_t lane_d1[kMaxLanes], lane_d2[kMaxLanes], lane_j1[kMaxLanes];
+  HWY_UNROLL(4)
+  for (size_t r = 0; r < R; ++r) {
+    hn::Store(d1[r], d32, lane_d1);
+    hn::Store(d2[r], d32, lane_d2);
+    hn::Store(j1[r], d32, lane_j1);
+    int32_t first = kNone, second = kNone, first_j = -1;
+    for (size_t lane = 0; lane < lanes; ++lane) {
+      const int32_t d = lane_d1[lane];
+      if (d < first || (d == first && lane_j1[lane] < first_j)) {
+        second = first;
+        first = d;
+        first_j = lane_j1[lane];
+      } else {
+        second = std::min(second, d);
+      }
+      second = std::min(second, lane_d2[lane]);
+    }
+    matcher_detail::BestTwo& out = best_a[i0 + r];
+    const auto to_float = [](int32_t d) {
+      return d >= kPaddingNorm ? std::numeric_limits<float>::infinity() : static_cast<float>(d);
+    };
+    out.d1 = to_float(first);
+    out.d2 = to_float(second);
+    out.j1 = first < kPaddingNorm ? first_j : -1;
+  }
+}
+
+// All pairs: B packed once (PackB), then A four rows at a time (each broadcast pair of A meets
+// one load of B), the remainder one row at a time.
+int64_t AllPairsBest(const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
+                     matcher_detail::BestTwo* best_a, matcher_detail::BestOne* best_b) {
+  const hn::ScalableTag<int32_t> d32;
+  const hn::Repartition<int16_t, decltype(d32)> d16;
+  const size_t lanes = hn::Lanes(d32);
+  const size_t blocks = (b.rows + lanes - 1) / lanes;
+  hwy::AlignedFreeUniquePtr<int32_t[]> norms_b;
+  const auto packed_b = PackB(d32, b, blocks, &norms_b);
+  auto best_b_d = hwy::AllocateAligned<int32_t>(blocks * lanes);
+  auto best_b_i = hwy::AllocateAligned<int32_t>(blocks * lanes);
+  std::fill(best_b_d.get(), best_b_d.get() + blocks * lanes, kNone);
+  std::fill(best_b_i.get(), best_b_i.get() + blocks * lanes, -1);
+  size_t i = 0;
+  for (; i + 4 <= a.rows; i += 4) {
+    RowsAgainstB<4>(d16, d32, a, i, packed_b.get(), norms_b.get(), blocks, best_b_d.get(),
+                    best_b_i.get(), best_a);
+  }
+  for (; i < a.rows; ++i) {
+    RowsAgainstB<1>(d16, d32, a, i, packed_b.get(), norms_b.get(), blocks, best_b_d.get(),
+                    best_b_i.get(), best_a);
+  }
+  for (size_t j = 0; j < b.rows; ++j) {
+    best_b[j].d =
+        best_b_i[j] >= 0 ? static_cast<float>(best_b_d[j]) : std::numeric_limits<float>::infinity();
+    best_b[j].i = best_b_i[j];
+  }
+  return HWY_TARGET;
+}
+#endif  // HWY_TARGET == HWY_SCALAR
 
 }  // namespace mm::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
@@ -212,38 +311,36 @@ std::vector<Match> MatchPadded(const cv::Mat& descriptors_a, const cv::Mat& desc
 
 std::vector<Match> MatchDescriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
                                     const MatchOptions& options, int64_t* target_used) {
-  return MatchPadded(
-      descriptors_a, descriptors_b, options,
-      [&](const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
-          std::vector<matcher_detail::BestTwo>& best_a,
-          std::vector<matcher_detail::BestOne>& best_b) {
-        const int64_t target =
-            HWY_DYNAMIC_DISPATCH(AllPairsBest)(a, b, best_a.data(), best_b.data());
-        if (target_used != nullptr) *target_used = target;
-      });
+  return MatchPadded(descriptors_a, descriptors_b, options,
+                     [&](const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
+                         std::vector<matcher_detail::BestTwo>& best_a,
+                         std::vector<matcher_detail::BestOne>& best_b) {
+                       const int64_t target =
+                           HWY_DYNAMIC_DISPATCH(AllPairsBest)(a, b, best_a.data(), best_b.data());
+                       if (target_used != nullptr) *target_used = target;
+                     });
 }
 
 std::vector<Match> MatchDescriptorsScalar(const cv::Mat& descriptors_a,
                                           const cv::Mat& descriptors_b,
                                           const MatchOptions& options) {
-  return MatchPadded(
-      descriptors_a, descriptors_b, options,
-      [](const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
-         std::vector<matcher_detail::BestTwo>& best_a,
-         std::vector<matcher_detail::BestOne>& best_b) {
-        for (size_t i = 0; i < a.rows; ++i) {
-          for (size_t j = 0; j < b.rows; ++j) {
-            float s = 0;
-            for (size_t k = 0; k < a.stride; ++k) {
-              const float e = static_cast<float>(a.data[i * a.stride + k]) -
-                              static_cast<float>(b.data[j * b.stride + k]);
-              s += e * e;
-            }
-            matcher_detail::Update(s, static_cast<int>(i), static_cast<int>(j), &best_a[i],
-                                   &best_b[j]);
-          }
-        }
-      });
+  return MatchPadded(descriptors_a, descriptors_b, options,
+                     [](const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
+                        std::vector<matcher_detail::BestTwo>& best_a,
+                        std::vector<matcher_detail::BestOne>& best_b) {
+                       for (size_t i = 0; i < a.rows; ++i) {
+                         for (size_t j = 0; j < b.rows; ++j) {
+                           float s = 0;
+                           for (size_t k = 0; k < a.stride; ++k) {
+                             const float e = static_cast<float>(a.data[i * a.stride + k]) -
+                                             static_cast<float>(b.data[j * b.stride + k]);
+                             s += e * e;
+                           }
+                           matcher_detail::Update(s, static_cast<int>(i), static_cast<int>(j),
+                                                  &best_a[i], &best_b[j]);
+                         }
+                       }
+                     });
 }
 
 }  // namespace mm

@@ -68,6 +68,33 @@ TEST(MatchDescriptors, EqualsScalarReferenceOnEveryCompiledTarget) {
   }
 }
 
+// Descriptors of a few levels (0-2 in 8 dimensions, the rest equal) have many equal distances:
+// every tie rule (the lowest index for the best, an equal second best, the mutual check) and
+// every remainder of the kernel's blocks (A in fours, B in vectors of rows) against the
+// scalar reference.
+TEST(MatchDescriptors, TiesAndBlockRemaindersEqualTheScalarReferenceOnEveryTarget) {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> level(0, 2);
+  for (const int rows : {2, 3, 5, 17, 33, 70}) {
+    cv::Mat a(rows + 1, 128, CV_32F, cv::Scalar(9)), b(rows, 128, CV_32F, cv::Scalar(9));
+    for (cv::Mat* m : {&a, &b}) {
+      for (int r = 0; r < m->rows; ++r) {
+        for (int c = 0; c < 8; ++c) m->at<float>(r, c) = static_cast<float>(level(rng));
+      }
+    }
+    for (const bool mutual : {true, false}) {
+      const MatchOptions options{1.0, mutual};  // Ratio 1: ties decide what is kept.
+      const std::vector<Match> reference = MatchDescriptorsScalar(a, b, options);
+      for (const int64_t target : hwy::SupportedAndGeneratedTargets()) {
+        hwy::SetSupportedTargetsForTest(target);
+        EXPECT_TRUE(Same(MatchDescriptors(a, b, options), reference))
+            << hwy::TargetName(target) << ", " << rows << " rows, mutual " << mutual;
+      }
+      hwy::SetSupportedTargetsForTest(0);
+    }
+  }
+}
+
 TEST(MatchDescriptors, FindsPlantedMatchesAndAppliesTheRules) {
   cv::Mat a, b;
   MakeDescriptors(2, 200, 260, 150, &a, &b);
