@@ -161,15 +161,19 @@ endfunction()
 # other than daemon_test, which the sanitizer stages build alone). GTEST_FILTER (a negative
 # filter, "-Suite.Name") splits a test across ctest entries.
 function(mm_add_test folder name)
-  cmake_parse_arguments(ARG "SLOW" "TIMEOUT;GTEST_FILTER;SHARED" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
+  cmake_parse_arguments(ARG "SLOW" "TIMEOUT;GTEST_FILTER;SHARED;COST" "SOURCES;LINK;LABELS;LOCK" ${ARGN})
   set(labels unit)
   if(ARG_LABELS)
     set(labels ${ARG_LABELS})
   endif()
-  # COST: on a first run (no Testing/Temporary/CTestCostData.txt yet) ctest starts the slow
-  # tests first, so the long serialised daemon tests overlap the unit tests instead of
-  # trailing them; later runs order by the measured times.
+  # COST: ctest starts the costliest tests first (scripts/test.sh removes ctest's measured
+  # times, Testing/Temporary/CTestCostData.txt, which would replace it). A slow test's COST is
+  # its time in seconds on a 2-core machine in a suite run (60 when not given); a test holding
+  # the lock "timing" gets 500 more (mm_test_locks).
   set(cost 60)
+  if(ARG_COST)
+    set(cost ${ARG_COST})
+  endif()
   if("unit" IN_LIST labels AND NOT ARG_SLOW)
     list(APPEND labels fast)
     set(cost 1)
@@ -305,6 +309,16 @@ function(mm_test_locks test)
   endif()
   list(REMOVE_DUPLICATES locks)
   set_tests_properties(${test} PROPERTIES RESOURCE_LOCK "${locks}")
+  # The tests that hold "timing" run one at a time: ctest starts them before the tests that
+  # share the machine freely, which then fill the other core beside them (COST is the order
+  # ctest starts tests in; scripts/test.sh drops the measured times so every run keeps it).
+  if("timing" IN_LIST locks)
+    get_test_property(${test} COST cost)
+    if(NOT cost OR cost LESS 500)
+      math(EXPR cost "${cost} + 500")
+      set_tests_properties(${test} PROPERTIES COST ${cost})
+    endif()
+  endif()
 endfunction()
 
 # Collects every target that `target` links, transitively.
