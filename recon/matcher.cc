@@ -143,93 +143,111 @@ hwy::AlignedFreeUniquePtr<int16_t[]> PackB(D32 d32, const matcher_detail::Padded
   return packed;
 }
 
-// Rows i0 .. i0+R-1 of A against every row of B. Each lane keeps the best two distances of its
-// share of B (rows j = lane mod L) and the first row giving the best; B's per-row best (over
-// A's rows in increasing order, strict <: the lowest i wins ties) is updated in place.
-template <size_t R, class D16, class D32>
-HWY_INLINE void RowsAgainstB(D16 d16, D32 d32, const matcher_detail::PaddedRows& a, size_t i0,
-                             const int16_t* packed_b, const int32_t* norms_b, size_t blocks,
-                             int32_t* best_b_d, int32_t* best_b_i,
-                             matcher_detail::BestTwo* best_a) {
+// One row of A's distances to a block of B (in its lanes) into the row's per-lane best two,
+// and into B's per-row best (rows of A come in increasing order; strict <: the lowest i wins).
+template <class D32, class V = hn::Vec<D32> >
+HWY_INLINE void UpdateBest(D32 d32, V dist, V j, int32_t i, V& d1, V& d2, V& j1, V& best_b_d,
+                           V& best_b_i) {
+  const auto better = hn::Lt(dist, d1);
+  d2 = hn::IfThenElse(better, d1, hn::Min(d2, dist));
+  d1 = hn::IfThenElse(better, dist, d1);
+  j1 = hn::IfThenElse(better, j, j1);
+  const auto better_b = hn::Lt(dist, best_b_d);
+  best_b_d = hn::IfThenElse(better_b, dist, best_b_d);
+  best_b_i = hn::IfThenElse(better_b, hn::Set(d32, i), best_b_i);
+}
+
+// A row's per-lane best twos into its best two: the best is the least d1 (the lowest row on
+// ties), the second the least of every d2 and of the d1s but that one.
+template <class D32, class V = hn::Vec<D32> >
+HWY_INLINE void MergeLanes(D32 d32, V d1, V d2, V j1, matcher_detail::BestTwo* out) {
+  constexpr size_t kMaxLanes = hn::MaxLanes(D32());
+  HWY_ALIGN int32_t lane_d1[kMaxLanes], lane_d2[kMaxLanes], lane_j1[kMaxLanes];
+  hn::Store(d1, d32, lane_d1);
+  hn::Store(d2, d32, lane_d2);
+  hn::Store(j1, d32, lane_j1);
+  int32_t first = kNone, second = kNone, first_j = -1;
+  for (size_t lane = 0; lane < hn::Lanes(d32); ++lane) {
+    const int32_t d = lane_d1[lane];
+    if (d < first || (d == first && lane_j1[lane] < first_j)) {
+      second = first;
+      first = d;
+      first_j = lane_j1[lane];
+    } else {
+      second = std::min(second, d);
+    }
+    second = std::min(second, lane_d2[lane]);
+  }
+  const auto to_float = [](int32_t d) {
+    return d >= kPaddingNorm ? std::numeric_limits<float>::infinity() : static_cast<float>(d);
+  };
+  out->d1 = to_float(first);
+  out->d2 = to_float(second);
+  out->j1 = first < kPaddingNorm ? first_j : -1;
+}
+
+// Rows i0 .. i0+3 of A against every row of B; rows past A's end are a zero row with a norm
+// that no real distance exceeds (they change nothing and are not written). Four rows share each
+// load of B. (Named variables, not arrays: SVE's vectors cannot be array elements.)
+template <class D16, class D32>
+HWY_INLINE void FourRowsAgainstB(D16 d16, D32 d32, const matcher_detail::PaddedRows& a, size_t i0,
+                                 const int16_t* packed_b, const int32_t* norms_b, size_t blocks,
+                                 const int16_t* zero_row, int32_t* best_b_d, int32_t* best_b_i,
+                                 matcher_detail::BestTwo* best_a) {
   using V = hn::Vec<D32>;
   const size_t lanes = hn::Lanes(d32);
   const size_t pairs = a.stride / 2;
-  const int16_t* rows[R];
-  V d1[R], d2[R], j1[R];
-  HWY_UNROLL(4)
-  for (size_t r = 0; r < R; ++r) {
-    rows[r] = a.data.data() + (i0 + r) * a.stride;
-    d1[r] = d2[r] = hn::Set(d32, kNone);
-    j1[r] = hn::Set(d32, -1);
-  }
+  const auto row = [&](size_t r) {
+    return i0 + r < a.rows ? a.data.data() + (i0 + r) * a.stride : zero_row;
+  };
+  const auto norm = [&](size_t r) {
+    return hn::Set(d32, i0 + r < a.rows ? a.norms[i0 + r] : kPaddingNorm);
+  };
+  const int16_t *row0 = row(0), *row1 = row(1), *row2 = row(2), *row3 = row(3);
+  const V norm0 = norm(0), norm1 = norm(1), norm2 = norm(2), norm3 = norm(3);
+  V d1_0 = hn::Set(d32, kNone), d1_1 = d1_0, d1_2 = d1_0, d1_3 = d1_0;
+  V d2_0 = d1_0, d2_1 = d1_0, d2_2 = d1_0, d2_3 = d1_0;
+  V j1_0 = hn::Set(d32, -1), j1_1 = j1_0, j1_2 = j1_0, j1_3 = j1_0;
   const V iota = hn::Iota(d32, 0);
+  const auto broadcast = [&](const int16_t* r, size_t p) {
+    int32_t pair;  // A's values at 2p and 2p+1 as one int32.
+    std::memcpy(&pair, r + 2 * p, sizeof(pair));
+    return hn::BitCast(d16, hn::Set(d32, pair));
+  };
   for (size_t block = 0; block < blocks; ++block) {
     const int16_t* pb = packed_b + block * lanes * a.stride;
-    V sum0[R], sum1[R];
-    HWY_UNROLL(4)
-    for (size_t r = 0; r < R; ++r) sum0[r] = sum1[r] = hn::Zero(d32);
+    V s0 = hn::Zero(d32), s1 = s0, s2 = s0, s3 = s0;  // Lane k: dot with the block's row k.
+    V t0 = s0, t1 = s0, t2 = s0, t3 = s0;
     for (size_t p = 0; p < pairs; ++p) {
       const auto vb = hn::Load(d16, pb + p * 2 * lanes);
-      HWY_UNROLL(4)
-      for (size_t r = 0; r < R; ++r) {
-        int32_t pair;  // A's values at 2p and 2p+1, as one int32 to broadcast.
-        std::memcpy(&pair, rows[r] + 2 * p, sizeof(pair));
-        const auto va = hn::BitCast(d16, hn::Set(d32, pair));
-        sum0[r] = hn::ReorderWidenMulAccumulate(d32, va, vb, sum0[r], sum1[r]);
-      }
+      s0 = hn::ReorderWidenMulAccumulate(d32, broadcast(row0, p), vb, s0, t0);
+      s1 = hn::ReorderWidenMulAccumulate(d32, broadcast(row1, p), vb, s1, t1);
+      s2 = hn::ReorderWidenMulAccumulate(d32, broadcast(row2, p), vb, s2, t2);
+      s3 = hn::ReorderWidenMulAccumulate(d32, broadcast(row3, p), vb, s3, t3);
     }
     const V norm_b = hn::Load(d32, norms_b + block * lanes);
     const V j = hn::Add(iota, hn::Set(d32, static_cast<int32_t>(block * lanes)));
     V bd = hn::Load(d32, best_b_d + block * lanes);
     V bi = hn::Load(d32, best_b_i + block * lanes);
-    HWY_UNROLL(4)
-    for (size_t r = 0; r < R; ++r) {
-      const V dot = hn::RearrangeToOddPlusEven(sum0[r], sum1[r]);
-      const V dist = hn::Sub(hn::Add(hn::Set(d32, a.norms[i0 + r]), norm_b), hn::Add(dot, dot));
-      const auto better = hn::Lt(dist, d1[r]);
-      d2[r] = hn::IfThenElse(better, d1[r], hn::Min(d2[r], dist));
-      d1[r] = hn::IfThenElse(better, dist, d1[r]);
-      j1[r] = hn::IfThenElse(better, j, j1[r]);
-      const auto better_b = hn::Lt(dist, bd);
-      bd = hn::IfThenElse(better_b, dist, bd);
-      bi = hn::IfThenElse(better_b, hn::Set(d32, static_cast<int32_t>(i0 + r)), bi);
-    }
+    const auto dist = [&](V norm_a, V sum0, V sum1) {  // |a|^2 + |b|^2 - 2 a.b
+      const V dot = hn::RearrangeToOddPlusEven(sum0, sum1);
+      return hn::Sub(hn::Add(norm_a, norm_b), hn::Add(dot, dot));
+    };
+    const auto i = static_cast<int32_t>(i0);
+    UpdateBest(d32, dist(norm0, s0, t0), j, i, d1_0, d2_0, j1_0, bd, bi);
+    UpdateBest(d32, dist(norm1, s1, t1), j, i + 1, d1_1, d2_1, j1_1, bd, bi);
+    UpdateBest(d32, dist(norm2, s2, t2), j, i + 2, d1_2, d2_2, j1_2, bd, bi);
+    UpdateBest(d32, dist(norm3, s3, t3), j, i + 3, d1_3, d2_3, j1_3, bd, bi);
     hn::Store(bd, d32, best_b_d + block * lanes);
     hn::Store(bi, d32, best_b_i + block * lanes);
   }
-  // The lanes' best twos into the row's: the best is the least d1 (the lowest row on ties), the
-  // second the least of every d2 and of the d1s but that one.
-  constexpr size_t kMaxLanes = hn::MaxLanes(D32());
-  HWY_ALIGN int32_t lane_d1[kMaxLanes], lane_d2[kMaxLanes], lane_j1[kMaxLanes];
-  HWY_UNROLL(4)
-  for (size_t r = 0; r < R; ++r) {
-    hn::Store(d1[r], d32, lane_d1);
-    hn::Store(d2[r], d32, lane_d2);
-    hn::Store(j1[r], d32, lane_j1);
-    int32_t first = kNone, second = kNone, first_j = -1;
-    for (size_t lane = 0; lane < lanes; ++lane) {
-      const int32_t d = lane_d1[lane];
-      if (d < first || (d == first && lane_j1[lane] < first_j)) {
-        second = first;
-        first = d;
-        first_j = lane_j1[lane];
-      } else {
-        second = std::min(second, d);
-      }
-      second = std::min(second, lane_d2[lane]);
-    }
-    matcher_detail::BestTwo& out = best_a[i0 + r];
-    const auto to_float = [](int32_t d) {
-      return d >= kPaddingNorm ? std::numeric_limits<float>::infinity() : static_cast<float>(d);
-    };
-    out.d1 = to_float(first);
-    out.d2 = to_float(second);
-    out.j1 = first < kPaddingNorm ? first_j : -1;
-  }
+  MergeLanes(d32, d1_0, d2_0, j1_0, best_a + i0);
+  if (i0 + 1 < a.rows) MergeLanes(d32, d1_1, d2_1, j1_1, best_a + i0 + 1);
+  if (i0 + 2 < a.rows) MergeLanes(d32, d1_2, d2_2, j1_2, best_a + i0 + 2);
+  if (i0 + 3 < a.rows) MergeLanes(d32, d1_3, d2_3, j1_3, best_a + i0 + 3);
 }
 
-// All pairs: B packed once (PackB), then A four rows at a time (each broadcast pair of A meets
-// one load of B), the remainder one row at a time.
+// All pairs: B packed once (PackB), then A four rows at a time.
 int64_t AllPairsBest(const matcher_detail::PaddedRows& a, const matcher_detail::PaddedRows& b,
                      matcher_detail::BestTwo* best_a, matcher_detail::BestOne* best_b) {
   const hn::ScalableTag<int32_t> d32;
@@ -242,14 +260,10 @@ int64_t AllPairsBest(const matcher_detail::PaddedRows& a, const matcher_detail::
   auto best_b_i = hwy::AllocateAligned<int32_t>(blocks * lanes);
   std::fill(best_b_d.get(), best_b_d.get() + blocks * lanes, kNone);
   std::fill(best_b_i.get(), best_b_i.get() + blocks * lanes, -1);
-  size_t i = 0;
-  for (; i + 4 <= a.rows; i += 4) {
-    RowsAgainstB<4>(d16, d32, a, i, packed_b.get(), norms_b.get(), blocks, best_b_d.get(),
-                    best_b_i.get(), best_a);
-  }
-  for (; i < a.rows; ++i) {
-    RowsAgainstB<1>(d16, d32, a, i, packed_b.get(), norms_b.get(), blocks, best_b_d.get(),
-                    best_b_i.get(), best_a);
+  const std::vector<int16_t> zero_row(a.stride, 0);
+  for (size_t i = 0; i < a.rows; i += 4) {
+    FourRowsAgainstB(d16, d32, a, i, packed_b.get(), norms_b.get(), blocks, zero_row.data(),
+                     best_b_d.get(), best_b_i.get(), best_a);
   }
   for (size_t j = 0; j < b.rows; ++j) {
     best_b[j].d =
