@@ -2,10 +2,11 @@
 // target in HWY_TARGETS, chosen at run time by HWY_DYNAMIC_DISPATCH), and its scalar reference.
 // Descriptors are rounded to integers in [0, 255] first (OpenCV's SIFT descriptors already are)
 // and stored as int16. The SIMD kernel computes |a - b|^2 = |a|^2 + |b|^2 - 2 a.b with integer
-// multiply-adds (int16 x int16 -> int32, e.g. _mm256_madd_epi16 / vmlal_s16); the scalar
-// reference sums the squared differences in float. Every squared distance is an integer below
-// 128 * 255^2 < 2^24, exact in both, so the two paths give bit-identical distances and the
-// same matches whatever the summation order.
+// multiply-adds (int16 x int16 -> int32, e.g. _mm256_madd_epi16 / vmlal_s16) against B packed
+// so that each lane holds one row's dot product (PackB); the scalar reference sums the squared
+// differences in float. Every squared distance is an integer below 128 * 255^2 < 2^24, exact in
+// both, so the two paths give bit-identical distances and the same matches whatever the
+// summation order.
 
 #include <algorithm>
 #include <cmath>
@@ -145,7 +146,7 @@ hwy::AlignedFreeUniquePtr<int16_t[]> PackB(D32 d32, const matcher_detail::Padded
 
 // One row of A's distances to a block of B (in its lanes) into the row's per-lane best two,
 // and into B's per-row best (rows of A come in increasing order; strict <: the lowest i wins).
-template <class D32, class V = hn::Vec<D32> >
+template <class D32, class V>
 HWY_INLINE void UpdateBest(D32 d32, V dist, V j, int32_t i, V& d1, V& d2, V& j1, V& best_b_d,
                            V& best_b_i) {
   const auto better = hn::Lt(dist, d1);
@@ -159,7 +160,7 @@ HWY_INLINE void UpdateBest(D32 d32, V dist, V j, int32_t i, V& d1, V& d2, V& j1,
 
 // A row's per-lane best twos into its best two: the best is the least d1 (the lowest row on
 // ties), the second the least of every d2 and of the d1s but that one.
-template <class D32, class V = hn::Vec<D32> >
+template <class D32, class V>
 HWY_INLINE void MergeLanes(D32 d32, V d1, V d2, V j1, matcher_detail::BestTwo* out) {
   constexpr size_t kMaxLanes = hn::MaxLanes(D32());
   HWY_ALIGN int32_t lane_d1[kMaxLanes], lane_d2[kMaxLanes], lane_j1[kMaxLanes];

@@ -22,7 +22,9 @@ case "${1:-}" in
           deps_log=build/install-deps-test.log
           echo "test: installing the test packages (groups test, browser) while compiling;" \
                "apt's output: $deps_log"
-          scripts/install-deps.sh test browser >"$deps_log" 2>&1 &
+          (deps_start=$SECONDS
+           scripts/install-deps.sh test browser
+           echo "took $((SECONDS - deps_start)) s") >"$deps_log" 2>&1 &
           deps=$!
           scripts/build.sh default
           deps_wait=$SECONDS
@@ -31,8 +33,8 @@ case "${1:-}" in
             echo "test: installing the test packages failed (above)" >&2
             exit 1
           fi
-          echo "test: test packages: $(grep '^install-deps:' "$deps_log" | tail -n 1)" \
-               "(waited $((SECONDS - deps_wait)) s for them after the compile)"
+          echo "test: test packages: $(grep '^install-deps:' "$deps_log" | tail -n 1)," \
+               "$(tail -n 1 "$deps_log") (waited $((SECONDS - deps_wait)) s after the compile)"
           labels=() ;;
   --fast) scripts/build.sh default mm_unit_tests
           labels=(-L fast) ;;
