@@ -24,6 +24,7 @@
 #include "entry/entry.h"
 #include "tests/support/read_file.h"
 #include "tests/support/run_command.h"
+#include "tests/support/temp_dir.h"
 
 extern char** environ;
 
@@ -94,7 +95,7 @@ class DaemonProcess {
   DaemonProcess(const std::string& name, const CameraUri& camera,
                 const std::string& extra_config = "", const std::string& spool_keys = "",
                 const fs::path& calibration = kData / "calib.toml") {
-    dir_ = fs::temp_directory_path() / ("mm_daemon_" + name + "_" + std::to_string(::getpid()));
+    dir_ = TestTempPath("daemon_" + name);
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     std::ofstream(dir_ / "monomeshd.toml")

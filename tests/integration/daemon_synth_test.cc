@@ -9,6 +9,7 @@
 #include "dataset/tum.h"
 #include "tests/integration/daemon_process.h"
 #include "tests/support/run_command.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm::test {
 namespace {
@@ -19,10 +20,7 @@ const fs::path kBoardCamera = fs::path(MM_SOURCE_DIR) / "tests/support/board_cam
 
 // `monomesh synth` into <tmp>/mm_synth_<name>_<pid>/ with the distorted camera.
 fs::path Synthesize(const std::string& name, const std::string& path, int frames) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_synth_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = FreshTempDir("synth_" + name);
   int status = 0;
   const std::string out =
       RunCommand(Monomesh() + " synth --scene l-corridor --out " + (dir / "seq").string() +

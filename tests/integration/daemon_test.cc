@@ -252,8 +252,7 @@ TEST(Daemon, CalibrationOrConfigThatIsNotARegularFileExits78AtOnce) {
 
 // A copy of the bundled dataset the test may change.
 fs::path CopyOfBundledData(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_data_" + name + "_" + std::to_string(::getpid()));
+  const fs::path dir = TestTempPath("data_" + name);
   fs::remove_all(dir);
   fs::copy(kData, dir, fs::copy_options::recursive);
   return dir;
@@ -265,6 +264,7 @@ fs::path CopyOfBundledData(const std::string& name) {
 TEST(Daemon, HugeCalibrationImageSizeExits78NamingTheField) {
   const fs::path calib =
       fs::temp_directory_path() / ("mm_huge_calib_" + std::to_string(::getpid()) + ".toml");
+  RemovedWhenAllPass::Add(calib);
   std::ofstream(calib) << "[camera]\nimage_size = [1000000, 1000000]\nfc = [500, 500]\n"
                           "cc = [320, 240]\nkc = [0, 0, 0, 0]\n";
   DaemonProcess daemon("hugecalib", "rate=max", "", kData, "", calib);
@@ -756,8 +756,7 @@ TEST(Daemon, MissingCameraFolderIsReportedWithThePath) {
 // Rotation only (homography warps K R K^-1 of one keyframe, up to 9 deg of yaw, ~90 px of image
 // motion) at 30 fps: the gate never takes keyframe B, even with a small threshold.
 TEST(Daemon, RotationOnlySequenceNeverTakesKeyframeB) {
-  const fs::path dir = fs::temp_directory_path() / ("mm_rotation_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = FreshTempDir("rotation");
   fs::create_directories(dir / "rgb");
   const cv::Mat a = cv::imread((kData / "rgb/1341847982.730674.png").string());
   Eigen::Matrix3d k;

@@ -11,6 +11,7 @@
 #include "calib/calibrate.h"
 #include "tests/support/run_command.h"
 #include "tests/support/shared_data.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm::test {
 namespace {
@@ -21,8 +22,7 @@ const fs::path kOffice = fs::path(MM_SOURCE_DIR) / "data/tum_office";
 
 // A TUM folder interleaving `boards` chessboard images with office frames.
 fs::path MakeCameraFolder(const fs::path& chessboards, int boards) {
-  const fs::path dir = fs::temp_directory_path() / ("mm_snapshot_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = FreshTempDir("snapshot");
   fs::create_directories(dir / "rgb");
   std::ofstream list(dir / "rgb.txt");
   std::vector<fs::path> office;
