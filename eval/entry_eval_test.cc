@@ -12,13 +12,15 @@
 #include <iomanip>
 
 #include "entry/report.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
 
-EntryEvalOptions Options(const fs::path& spool, const fs::path& dataset, const fs::path& feed_log = {}) {
+EntryEvalOptions Options(const fs::path& spool, const fs::path& dataset,
+                         const fs::path& feed_log = {}) {
   EntryEvalOptions o;
   o.spool = spool;
   o.dataset = dataset;
@@ -29,15 +31,14 @@ EntryEvalOptions Options(const fs::path& spool, const fs::path& dataset, const f
 class EntryEvalTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("mm_entry_eval_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
+    dir_ = test::FreshTempDir("entry_eval");
     fs::create_directories(dir_ / "spool");
     // world_from_cam: identity at t=100; at t=101 moved 0.5 m along x and yawed 10 deg.
     const Eigen::Quaterniond q(Eigen::AngleAxisd(10.0 * M_PI / 180, Eigen::Vector3d::UnitY()));
-    std::ofstream(dir_ / "groundtruth.txt") << std::setprecision(17) << "# t tx ty tz qx qy qz qw\n"
-                                             << "100 0 0 0 0 0 0 1\n"
-                                             << "101 0.5 0 0 " << q.x() << " " << q.y() << " "
-                                             << q.z() << " " << q.w() << "\n";
+    std::ofstream(dir_ / "groundtruth.txt")
+        << std::setprecision(17) << "# t tx ty tz qx qy qz qw\n"
+        << "100 0 0 0 0 0 0 1\n"
+        << "101 0.5 0 0 " << q.x() << " " << q.y() << " " << q.z() << " " << q.w() << "\n";
     world_from_b_.linear() = q.toRotationMatrix();
     world_from_b_.translation() = Eigen::Vector3d(0.5, 0, 0);
   }
@@ -95,7 +96,8 @@ TEST_F(EntryEvalTest, DeviceTimestampsMapThroughTheFeedLog) {
   EXPECT_DOUBLE_EQ(r.entries[0].time_b_s, 101.0);
   EXPECT_NEAR(r.entries[0].rot_err_deg, 0.0, 1e-6);
   EXPECT_FALSE(r.entries[1].evaluated);
-  EXPECT_NE(r.entries[1].problem.find("keyframe a (device time 5.050000 s) matches no fed frame"), std::string::npos)
+  EXPECT_NE(r.entries[1].problem.find("keyframe a (device time 5.050000 s) matches no fed frame"),
+            std::string::npos)
       << r.entries[1].problem;
 }
 

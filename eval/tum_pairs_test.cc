@@ -9,6 +9,7 @@
 
 #include "calib/calib_io.h"
 #include "eval/capture_eval.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm {
 namespace {
@@ -18,8 +19,7 @@ namespace fs = std::filesystem;
 const fs::path kData = fs::path(MM_SOURCE_DIR) / "data/tum_office";
 
 fs::path CopyWithoutGroundTruth(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_eval_nogt_" + name + "_" + std::to_string(::getpid()));
+  const fs::path dir = test::TestTempPath("eval_nogt_" + name);
   fs::remove_all(dir);
   fs::copy(kData, dir, fs::copy_options::recursive);
   fs::remove(dir / "groundtruth.txt");

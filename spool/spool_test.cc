@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "tests/support/read_file.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm {
 namespace {
@@ -19,8 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("mm_spool_" + name + "_" +
-                                                    std::to_string(::getpid()));
+  const fs::path dir = test::TestTempPath("spool_" + name);
   fs::remove_all(dir);
   return dir;
 }

@@ -16,15 +16,14 @@
 #include "calib/calib_io.h"
 #include "dataset/tum.h"
 #include "synth/sequence.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  return fs::temp_directory_path() / ("mm_synth_" + name + "_" + std::to_string(::getpid()));
-}
+fs::path TempDir(const std::string& name) { return test::TestTempPath("synth_" + name); }
 
 BouguetCamera DistortedCamera() {
   BouguetCamera c;

@@ -11,15 +11,14 @@
 #include "synth/camera_path.h"
 #include "synth/corridor.h"
 #include "synth/sequence.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  return fs::temp_directory_path() / ("mm_synth_unit_" + name + "_" + std::to_string(::getpid()));
-}
+fs::path TempDir(const std::string& name) { return test::TestTempPath("synth_unit_" + name); }
 
 // A small sequence (1024^2 atlas, tiny frames): the writer end to end, cheap under emulation.
 struct Sequence {

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "tests/support/read_file.h"
+#include "tests/support/temp_dir.h"
 
 namespace mm {
 namespace {
@@ -41,13 +42,7 @@ bool Gone(pid_t pid) {
   return paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'Z';
 }
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("mm_hooks_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return test::FreshTempDir("hooks_" + name); }
 
 // Hooks start programs of the machine (/bin/sh). A cross build's test runs under qemu-user,
 // which cannot exec them without binfmt_misc (cmake/MonomeshHelpers.cmake): skipped there.
