@@ -146,7 +146,7 @@ function(mm_add_executable name)
 endfunction()
 
 # mm_add_test(FOLDER NAME SOURCES ... [LINK ...] [LABELS ...] [TIMEOUT S] [SLOW] [LOCK ...]
-#             [GTEST_FILTER F])
+#             [GTEST_FILTER F] [SHARED GROUP] [COST S])
 # Registers GoogleTest sources as the ctest test "<folder>/<name>" and sets MM_TEST_TARGET (in
 # the caller's scope) to the executable that holds them. A test that needs data it may not find
 # exits 77 and is reported as skipped.
@@ -314,7 +314,10 @@ function(mm_test_locks test)
   # ctest starts tests in; scripts/test.sh drops the measured times so every run keeps it).
   if("timing" IN_LIST locks)
     get_test_property(${test} COST cost)
-    if(NOT cost OR cost LESS 500)
+    if(NOT cost)  # Not set ("NOTFOUND").
+      set(cost 0)
+    endif()
+    if(cost LESS 500)
       math(EXPR cost "${cost} + 500")
       set_tests_properties(${test} PROPERTIES COST ${cost})
     endif()

@@ -188,7 +188,7 @@ HWY_INLINE void MergeLanes(D32 d32, V d1, V d2, V j1, matcher_detail::BestTwo* o
 }
 
 // Rows i0 .. i0+3 of A against every row of B; rows past A's end are a zero row with a norm
-// that no real distance exceeds (they change nothing and are not written). Four rows share each
+// above every real distance (they change nothing and are not written). Four rows share each
 // load of B. (Named variables, not arrays: SVE's vectors cannot be array elements.)
 template <class D16, class D32>
 HWY_INLINE void FourRowsAgainstB(D16 d16, D32 d32, const matcher_detail::PaddedRows& a, size_t i0,
