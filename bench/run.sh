@@ -67,8 +67,8 @@ PY
 params="$(pinhole_params "$calib")"
 # colmap_walk DIR DATASET LIST PARAMS: COLMAP's incremental mapper (bench/colmap_sfm.py, seeded)
 # on the images of a TUM list, every model it made converted to text, and the largest one's ATE
-# and scale drift against the dataset's ground truth (bench/walk_ate.py) printed as JSON; its
-# wall and CPU time in DIR/time.txt.
+# and scale drift (trajectory; depth maps where the dataset has them) against the dataset's
+# ground truth (bench/walk_ate.py) printed as JSON; its wall and CPU time in DIR/time.txt.
 colmap_walk() {
   local d="$1" data="$2" list pinhole="$4" m t
   list="$(realpath "$3")"
@@ -342,14 +342,16 @@ if os.path.exists(f"{work}/video.json"):
     print(f"monomesh: {w['registered']}/{w['keyframes']} registered, {w['segments']} segment(s), "
           f"ATE {100 * w['ate_rmse_m']:.2f} cm RMSE over {w['path_length_m']:.2f} m "
           f"({100 * w['ate_rmse_m'] / w['path_length_m']:.2f} %), scale drift "
-          f"{100 * w['scale_drift']:.1f} %; {w['cpu_total_s']:.2f} s CPU walk (keyframe median "
+          f"{100 * w['scale_drift']:.1f} % (depth maps {100 * w.get('depth_scale_drift', 0):.1f} %); "
+          f"{w['cpu_total_s']:.2f} s CPU walk (keyframe median "
           f"{1e3 * w['cpu_per_keyframe_s_median']:.0f} ms, frame median "
           f"{1e3 * w['cpu_per_frame_s_median']:.1f} ms), process {wall:.2f} s wall / {cpu:.2f} s CPU")
     if os.path.exists(f"{work}/colmap_video.json"):
         c, ratios = colmap_beside("colmap_video", w["cpu_total_s"], wall, cpu)
         video["colmap"] = c
         ate = (f"ATE {100 * c['ate_rmse_m']:.2f} cm RMSE, scale drift "
-               f"{100 * c.get('scale_drift', 0):.1f} %") if "ate_rmse_m" in c else "no ATE"
+               f"{100 * c.get('scale_drift', 0):.1f} % (depth maps "
+               f"{100 * c.get('depth_scale_drift', 0):.1f} %)") if "ate_rmse_m" in c else "no ATE"
         print(f"COLMAP:   {c['registered']}/{c['total']} registered, {c['models']} model(s), {ate}; "
               f"{c['cpu_s']:.2f} s CPU, {c['wall_s']:.2f} s wall")
         video["ratio_colmap_over_monomesh"] = ratios

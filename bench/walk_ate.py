@@ -8,7 +8,10 @@ squares rotation, translation and scale; the rotation found here by Horn's 1987 
 method, which solves the same problem, so that no numpy is needed). Ground truth at a keyframe:
 linear interpolation of the two bracketing poses, the nearest one within 0.1 s at the ends (as
 Trajectory::WorldFromCamAt). Scale drift as `monomesh eval --walk`: |s_last / s_first - 1| of
-the Sim(3) scales fitted to the first and to the last third of the keyframes. Prints JSON.
+the Sim(3) scales fitted to the first and to the last third of the keyframes; where the dataset
+has depth maps (depth.txt, value / 5000 m, within 0.02 s of a keyframe), the same from them
+(`depth_scale_drift`): per image the median of depth-map depth / model depth at its
+observations, the median of that over each third. Prints JSON.
 
 Usage: bench/walk_ate.py --dataset DIR --list FILE MODEL_TXT_DIR...
        bench/walk_ate.py --self-test
@@ -22,6 +25,7 @@ import random
 import sys
 
 MAX_GT_DT_S = 0.1  # As WalkEvalOptions::max_gt_dt_s.
+MAX_DEPTH_DT_S = 0.02  # As WalkEvalOptions::max_depth_dt_s.
 
 
 def read_list(path):
@@ -79,6 +83,51 @@ def read_images_txt(path):
         centres[" ".join(f[9:])] = [-sum(r[k][j] * t[k] for k in range(3)) for j in range(3)]
         i += 2  # The next line holds the image's 2-D points (possibly none).
     return centres
+
+
+def read_model_depths(model_dir):
+    """{name: [(x, y, depth in the camera)]} of a text model's observations of its 3-D points."""
+    points = {}
+    for line in open(os.path.join(model_dir, "points3D.txt")):
+        f = line.split()
+        if f and not f[0].startswith("#"):
+            points[int(f[0])] = [float(v) for v in f[1:4]]
+    out = {}
+    lines = [l for l in open(os.path.join(model_dir, "images.txt")).read().split("\n")
+             if not l.startswith("#")]
+    for i in range(0, len(lines) - 1, 2):
+        f = lines[i].split()
+        if len(f) < 10:
+            continue
+        qw, qx, qy, qz, tx, ty, tz = (float(v) for v in f[1:8])
+        r = quat_to_rot(qw, qx, qy, qz)
+        o = lines[i + 1].split()
+        obs = []
+        for j in range(0, len(o) - 2, 3):
+            p = points.get(int(o[j + 2]))
+            if p is not None:
+                z = sum(r[2][k] * p[k] for k in range(3)) + tz
+                obs.append((float(o[j]), float(o[j + 1]), z))
+        out[" ".join(f[9:])] = obs
+    return out
+
+
+def depth_scale(dataset, depth_list, t, obs):
+    """Median of depth-map depth / model depth at the observations; None without a depth map."""
+    from PIL import Image  # Only with depth maps (python3-pil, scripts/deps/bench.txt).
+    near = min(depth_list, key=lambda d: abs(d[0] - t), default=None)
+    if near is None or abs(near[0] - t) > MAX_DEPTH_DT_S:
+        return None
+    depth = Image.open(os.path.join(dataset, near[1]))
+    ratios = []
+    for x, y, z in obs:
+        u, v = round(x), round(y)
+        if z <= 0 or not (0 <= u < depth.width and 0 <= v < depth.height):
+            continue
+        d = depth.getpixel((u, v)) / 5000.0
+        if d > 0:
+            ratios.append(d / z)
+    return sorted(ratios)[len(ratios) // 2] if ratios else None
 
 
 def jacobi_eigen(a):
@@ -171,12 +220,13 @@ def main():
     models = [read_images_txt(os.path.join(d, "images.txt")) for d in args.models]
     best = max(models, key=len) if models else {}
     gt = read_groundtruth(os.path.join(args.dataset, "groundtruth.txt"))
-    src, dst = [], []
+    src, dst, order = [], [], []
     for name in sorted((n for n in best if n in names), key=names.get):
         p = position_at(gt, names[name])
         if p is not None:
             src.append(best[name])
             dst.append(p)
+            order.append(name)
     out = {"total": len(names), "models": len(models), "registered": len(best),
            "evaluated": len(src)}
     if len(src) >= 3:
@@ -189,6 +239,22 @@ def main():
             first = align_sim3(src[:third], dst[:third])[0]
             last = align_sim3(src[-third:], dst[-third:])[0]
             out.update(scale_drift=abs(last / first - 1))
+        depth_txt = os.path.join(args.dataset, "depth.txt")
+        if third >= 3 and os.path.exists(depth_txt):
+            depth_list = [(float(f[0]), f[1]) for f in (l.split() for l in open(depth_txt))
+                          if len(f) >= 2 and not f[0].startswith("#")]
+            best_dir = max(args.models, key=lambda d: len(models[args.models.index(d)]))
+            obs = read_model_depths(best_dir)
+            scales = [depth_scale(args.dataset, depth_list, names[n], obs.get(n, []))
+                      for n in order]
+
+            def median_of(values):
+                values = sorted(v for v in values if v is not None)
+                return values[len(values) // 2] if len(values) >= 3 else None
+
+            first, last = median_of(scales[:third]), median_of(scales[-third:])
+            if first and last:
+                out.update(depth_scale_drift=abs(last / first - 1))
     json.dump(out, sys.stdout)
     print()
 

@@ -163,6 +163,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   if (map) {
     s.relocalizations = map->relocalizations();
     s.merges = map->merges();
+    s.loop_closures = map->loop_closures();
     s.lost_keyframes = map->lost_keyframes();
     s.points = static_cast<int>(std::count_if(map->points().begin(), map->points().end(),
                                               [](const WalkPoint& p) { return p.valid; }));
@@ -349,6 +350,18 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     const double s_first = ScaleOf(first, estimated, truth);
     const double s_last = ScaleOf(last, estimated, truth);
     if (s_first > 0 && s_last > 0) s.scale_drift = std::abs(s_last / s_first - 1.0);
+    // The same thirds, read from the depth maps instead of the trajectory: the median local
+    // scale (depth-map depth / map depth) of each third's keyframes.
+    auto depth_scale_of = [&](const std::vector<int>& third_ids) {
+      std::vector<double> scales;
+      for (int id : third_ids) {
+        const WalkKeyframeEval& k = result.keyframes[static_cast<size_t>(id)];
+        if (k.depth_points > 0) scales.push_back(k.depth_scale);
+      }
+      return scales.size() >= 3 ? MedianOf(scales) : 0.0;
+    };
+    const double d_first = depth_scale_of(first), d_last = depth_scale_of(last);
+    if (d_first > 0 && d_last > 0) s.depth_scale_drift = std::abs(d_last / d_first - 1.0);
   }
   result.ok = true;
   return result;
@@ -363,6 +376,7 @@ std::string FormatWalkKeyframeLine(const WalkKeyframeEval& k) {
       k.walk.index, k.frame, k.segment,
       !k.walk.registered           ? "LOST "
       : k.walk.merged_segment >= 0 ? "MERGE"
+      : k.walk.loop_to >= 0        ? "LOOP "
       : k.walk.relocalized_to >= 0 ? "RELOC"
       : k.walk.bridged             ? "BRIDG"
                                    : (k.walk.failure.empty() ? "reg  " : "NEW  "),
@@ -381,18 +395,19 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
       "walk: %d frames, %d keyframes, %d registered, %d segment(s); evaluated segment "
       "%d: %d keyframes\n"
       "  ATE RMSE %.2f cm (max %.2f cm) over a %.2f m path (%.3f %%), RPE rotation "
-      "median %.3f deg, scale drift %.2f %%\n"
-      "  relocalisations %d, segments merged %d, lost keyframes %d; %d frames tracked\n"
+      "median %.3f deg, scale drift %.2f %% (from the depth maps %.2f %%)\n"
+      "  relocalisations %d, segments merged %d, loops closed %d, lost keyframes %d; %d frames "
+      "tracked\n"
       "  CPU per keyframe median %.1f ms, per other frame median %.2f ms (total %.2f s), %d "
       "map points; their depth at %d keyframes: median %.2f %%, p90 %.2f %% (%d "
       "observations)\n",
       s.frames, s.keyframes, s.registered, s.segments, s.evaluated_segment, s.evaluated_keyframes,
       100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m, s.path_length_m,
       s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0, s.rpe_rot_deg_median,
-      100.0 * s.scale_drift, s.relocalizations, s.merges, s.lost_keyframes, s.tracked_frames,
-      1e3 * s.cpu_per_keyframe_s_median, 1e3 * s.cpu_per_frame_s_median, s.cpu_total_s, s.points,
-      s.depth_keyframes, 100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90,
-      s.depth_points);
+      100.0 * s.scale_drift, 100.0 * s.depth_scale_drift, s.relocalizations, s.merges,
+      s.loop_closures, s.lost_keyframes, s.tracked_frames, 1e3 * s.cpu_per_keyframe_s_median,
+      1e3 * s.cpu_per_frame_s_median, s.cpu_total_s, s.points, s.depth_keyframes,
+      100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90, s.depth_points);
   std::string out = text;
   if (s.map_depth_views > 0) {
     std::snprintf(text, sizeof text,
@@ -432,11 +447,13 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                {"sim3_scale", s.sim3_scale},
                {"rpe_rot_deg_median", s.rpe_rot_deg_median},
                {"scale_drift", s.scale_drift},
+               {"depth_scale_drift", s.depth_scale_drift},
                {"cpu_per_keyframe_s_median", s.cpu_per_keyframe_s_median},
                {"cpu_per_frame_s_median", s.cpu_per_frame_s_median},
                {"tracked_frames", s.tracked_frames},
                {"relocalizations", s.relocalizations},
                {"merges", s.merges},
+               {"loop_closures", s.loop_closures},
                {"lost_keyframes", s.lost_keyframes},
                {"cpu_total_s", s.cpu_total_s},
                {"points", s.points},
@@ -472,6 +489,8 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
          {"registered", k.walk.registered},
          {"relocalized_to", k.walk.relocalized_to},
          {"merged_segment", k.walk.merged_segment},
+         {"loop_to", k.walk.loop_to},
+         {"loop_correction", k.walk.loop_correction_m},
          {"prior_matches", k.walk.prior_matches},
          {"bridged", k.walk.bridged},
          {"failure", k.walk.failure},

@@ -78,12 +78,18 @@ struct WalkEvalSummary {
   double sim3_scale = 0.0;     ///< Metres per map unit of the alignment.
   double rpe_rot_deg_median = 0.0;
   double scale_drift = 0.0;  ///< 0 when a third has fewer than 3 keyframes.
+  /// The same from the depth maps: |m_last / m_first - 1| of the median local scale
+  /// (WalkKeyframeEval::depth_scale) of the first and of the last third's keyframes; 0
+  /// without depth maps (fewer than 3 in a third). The trajectory's figure also holds the
+  /// ground truth's pose errors over a third's path; this one only the map's depths.
+  double depth_scale_drift = 0.0;
   double cpu_per_keyframe_s_median = 0.0;
   /// Thread CPU time of the frames that did not become keyframes (tracking and the gate).
   double cpu_per_frame_s_median = 0.0;
   int tracked_frames = 0;  ///< Of those, with a pose from the tracked map points.
   int relocalizations = 0;
   int merges = 0;            ///< Segments merged into another.
+  int loop_closures = 0;     ///< Loops closed (a keyframe recognised in its own segment).
   int lost_keyframes = 0;    ///< Keyframes neither registered nor relocalised.
   double cpu_total_s = 0.0;  ///< All frames, gate included.
   int points = 0;            ///< Valid map points.
