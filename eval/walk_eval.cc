@@ -155,6 +155,8 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       if (step.tracked) ++result.summary.tracked_frames;
     }
   }
+  if (tracker) tracker->Finish();
+  if (every_frame_map) every_frame_map->Finish();
   WalkEvalSummary& s = result.summary;
   s.cpu_total_s = ThreadCpuSeconds() - cpu_start;
   s.keyframes = static_cast<int>(result.keyframes.size());
@@ -164,6 +166,8 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     s.relocalizations = map->relocalizations();
     s.merges = map->merges();
     s.loop_closures = map->loop_closures();
+    s.global_bundles = map->global_bundles();
+    s.global_bundle_cpu_s = map->global_bundle_cpu_s();
     s.lost_keyframes = map->lost_keyframes();
     s.points = static_cast<int>(std::count_if(map->points().begin(), map->points().end(),
                                               [](const WalkPoint& p) { return p.valid; }));
@@ -396,8 +400,8 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
       "%d: %d keyframes\n"
       "  ATE RMSE %.2f cm (max %.2f cm) over a %.2f m path (%.3f %%), RPE rotation "
       "median %.3f deg, scale drift %.2f %% (from the depth maps %.2f %%)\n"
-      "  relocalisations %d, segments merged %d, loops closed %d, lost keyframes %d; %d frames "
-      "tracked\n"
+      "  relocalisations %d, segments merged %d, loops closed %d (segment adjusted in the "
+      "background %d times, %.2f s CPU), lost keyframes %d; %d frames tracked\n"
       "  CPU per keyframe median %.1f ms, per other frame median %.2f ms (total %.2f s), %d "
       "map points; their depth at %d keyframes: median %.2f %%, p90 %.2f %% (%d "
       "observations)\n",
@@ -405,9 +409,10 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
       100.0 * s.ate_rmse_m, 100.0 * s.ate_max_m, s.path_length_m,
       s.path_length_m > 0 ? 100.0 * s.ate_rmse_m / s.path_length_m : 0.0, s.rpe_rot_deg_median,
       100.0 * s.scale_drift, 100.0 * s.depth_scale_drift, s.relocalizations, s.merges,
-      s.loop_closures, s.lost_keyframes, s.tracked_frames, 1e3 * s.cpu_per_keyframe_s_median,
-      1e3 * s.cpu_per_frame_s_median, s.cpu_total_s, s.points, s.depth_keyframes,
-      100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90, s.depth_points);
+      s.loop_closures, s.global_bundles, s.global_bundle_cpu_s, s.lost_keyframes, s.tracked_frames,
+      1e3 * s.cpu_per_keyframe_s_median, 1e3 * s.cpu_per_frame_s_median, s.cpu_total_s, s.points,
+      s.depth_keyframes, 100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90,
+      s.depth_points);
   std::string out = text;
   if (s.map_depth_views > 0) {
     std::snprintf(text, sizeof text,
@@ -454,6 +459,8 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                {"relocalizations", s.relocalizations},
                {"merges", s.merges},
                {"loop_closures", s.loop_closures},
+               {"global_bundles", s.global_bundles},
+               {"global_bundle_cpu_s", s.global_bundle_cpu_s},
                {"lost_keyframes", s.lost_keyframes},
                {"cpu_total_s", s.cpu_total_s},
                {"points", s.points},
@@ -491,6 +498,7 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
          {"merged_segment", k.walk.merged_segment},
          {"loop_to", k.walk.loop_to},
          {"loop_correction", k.walk.loop_correction_m},
+         {"global_bundle_applied", k.walk.global_bundle_applied},
          {"prior_matches", k.walk.prior_matches},
          {"bridged", k.walk.bridged},
          {"failure", k.walk.failure},

@@ -32,7 +32,13 @@ struct WalkEvalOptions {
   int threads = 1;               ///< cv::setNumThreads for the run (timings are 1 thread).
   double max_gt_dt_s = 0.1;      ///< Ground-truth extrapolation limit.
   double max_depth_dt_s = 0.02;  ///< A depth map belongs to a keyframe within this time.
-  WalkOptions walk;
+  /// The daemon's, but a loop's background bundle adjustment is applied two keyframes after
+  /// the loop (waited for), so that the figures are the same on every run.
+  WalkOptions walk = [] {
+    WalkOptions w;
+    w.global_bundle_apply_after = 2;
+    return w;
+  }();
   KeyframeGateOptions gate;  ///< Without every_frame.
   /// The map mesh (map/walk_mesh.h) of the evaluated segment, aligned by the Sim(3) and
   /// rendered from the ground-truth poses of this many keyframes evenly along the path,
@@ -88,8 +94,12 @@ struct WalkEvalSummary {
   double cpu_per_frame_s_median = 0.0;
   int tracked_frames = 0;  ///< Of those, with a pose from the tracked map points.
   int relocalizations = 0;
-  int merges = 0;            ///< Segments merged into another.
-  int loop_closures = 0;     ///< Loops closed (a keyframe recognised in its own segment).
+  int merges = 0;         ///< Segments merged into another.
+  int loop_closures = 0;  ///< Loops closed (a keyframe recognised in its own segment).
+  /// Background bundle adjustments of a segment after a loop, applied; their threads' CPU
+  /// (not in cpu_total_s).
+  int global_bundles = 0;
+  double global_bundle_cpu_s = 0.0;
   int lost_keyframes = 0;    ///< Keyframes neither registered nor relocalised.
   double cpu_total_s = 0.0;  ///< All frames, gate included.
   int points = 0;            ///< Valid map points.

@@ -2,8 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include "map/background_bundle.h"
+
 #include <algorithm>
 #include <random>
+#include <stdexcept>
 #include <utility>
 
 namespace mm {
@@ -97,6 +100,50 @@ TEST(LocalBundleTest, RefusesMismatchedPoseFlags) {
   s.problem.pose_fixed.pop_back();
   EXPECT_FALSE(AdjustLocalBundle({}, &s.problem).ran);
   EXPECT_FALSE(LocalBundleOptions{.huber_px = 0}.Check().empty());
+}
+
+// The same adjustment on the background thread: the same result as in the caller's thread
+// (Ceres on one thread is deterministic), while the caller's copy stays as it was.
+TEST(BackgroundBundleTest, GivesTheCallersResultOnItsOwnCopy) {
+  Scene here = MakeScene(7, 0.5);
+  const Scene original = MakeScene(7, 0.5);
+  BackgroundBundle background;
+  EXPECT_FALSE(background.running());
+  background.Start({}, original.problem);
+  EXPECT_TRUE(background.running());
+  const LocalBundleSummary summary = AdjustLocalBundle({}, &here.problem);
+  const BackgroundBundleResult result = background.Take();
+  EXPECT_FALSE(background.running());
+  ASSERT_TRUE(result.summary.ran) << result.summary.message;
+  EXPECT_EQ(result.summary.iterations, summary.iterations);
+  EXPECT_DOUBLE_EQ(result.summary.final_rms_px, summary.final_rms_px);
+  EXPECT_GT(result.cpu_s, 0.0);
+  for (size_t i = 0; i < here.problem.cam_from_world.size(); ++i) {
+    EXPECT_TRUE(result.problem.cam_from_world[i].isApprox(here.problem.cam_from_world[i], 1e-12))
+        << "pose " << i;
+  }
+  for (size_t j = 0; j < here.problem.points_in_world.size(); ++j) {
+    ASSERT_TRUE(result.problem.points_in_world[j].isApprox(here.problem.points_in_world[j], 1e-12))
+        << "point " << j;
+  }
+  EXPECT_FALSE(original.problem.cam_from_world[4].isApprox(result.problem.cam_from_world[4], 1e-6));
+}
+
+// A second start waits for the first; a running one is waited for at destruction; Take
+// without a start is a programming error.
+TEST(BackgroundBundleTest, OneAtATimeAndNoneLeftRunning) {
+  const Scene s = MakeScene(3, 0.5);
+  {
+    BackgroundBundle background;
+    background.Start({}, s.problem);
+    background.Start({}, s.problem);
+    const BackgroundBundleResult result = background.Take();
+    EXPECT_TRUE(result.summary.ran);
+    background.Start({}, s.problem);  // Left running: the destructor waits for it.
+  }
+  BackgroundBundle idle;
+  EXPECT_FALSE(idle.done());
+  EXPECT_THROW(idle.Take(), std::logic_error);
 }
 
 }  // namespace

@@ -287,8 +287,17 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
       AdjustWindow(index, &summary);
       summary.bundle_s = SecondsSince(bundle_start);
     }
-    if (segments() > 1 && segment.size() >= 2) TryMerge(index, &summary);
+    if (segments() > 1 && segment.size() >= 2) {
+      // A merge moves the segment: the background adjustment of it is applied first.
+      if (segment_bundle_.running()) ApplySegmentBundle(&summary);
+      TryMerge(index, &summary);
+    }
     if (summary.merged_segment < 0 && segment.size() >= 2) TryCloseLoop(index, &summary);
+  }
+  if (segment_bundle_.running()) {
+    const int after = options_.global_bundle_apply_after;
+    const int since = index - segment_bundle_snapshot_.loop_keyframe;
+    if (after >= 0 ? since >= after : segment_bundle_.done()) ApplySegmentBundle(&summary);
   }
   summary.registered = k.registered;
   summary.segment = k.segment;
@@ -751,6 +760,8 @@ bool WalkMap::TryMerge(int keyframe, WalkKeyframeSummary* summary) {
 bool WalkMap::TryCloseLoop(int keyframe, WalkKeyframeSummary* summary) {
   if (options_.loop_min_gap_keyframes <= 0 || options_.loop_candidates <= 0) return false;
   if (last_loop_keyframe_ >= 0 && keyframe - last_loop_keyframe_ < options_.window) return false;
+  // The last loop's adjustment still runs (ORB-SLAM, too, closes one loop at a time).
+  if (segment_bundle_.running()) return false;
   // Candidates share no point with the keyframe (ORB-SLAM leaves out the keyframes connected
   // to it in the covisibility graph): a place seen again, not one still in view.
   const std::vector<int> neighbours = LocalKeyframes(keyframe, 2 * options_.window);
@@ -852,7 +863,7 @@ bool WalkMap::TryCloseLoop(int keyframe, WalkKeyframeSummary* summary) {
   }
   FusePoints(agreeing);
   if (static_cast<int>(segment.size()) <= options_.global_bundle_max_keyframes) {
-    AdjustSegment();
+    StartSegmentBundle(keyframe);
   } else {
     // A long walk: the pose graph has spread the drift; the bundle adjustment stays local to
     // both ends of the loop (its CPU and memory grow with the segment).
@@ -868,18 +879,21 @@ bool WalkMap::TryCloseLoop(int keyframe, WalkKeyframeSummary* summary) {
   return true;
 }
 
-void WalkMap::AdjustSegment() {
+void WalkMap::StartSegmentBundle(int keyframe) {
   const std::vector<int> segment = SegmentKeyframes();
   if (segment.size() < 3) return;
   LocalBundleProblem problem;
   problem.k = K_;
+  SegmentBundleSnapshot snapshot;
+  snapshot.segment = segment_;
+  snapshot.loop_keyframe = keyframe;
+  snapshot.keyframes = segment;
   std::map<int, int> pose_of_keyframe;
   for (size_t i = 0; i < segment.size(); ++i) {
     pose_of_keyframe[segment[i]] = static_cast<int>(i);
     problem.cam_from_world.push_back(keyframes_[static_cast<size_t>(segment[i])].cam_from_segment);
     problem.pose_fixed.push_back(i < 2);
   }
-  std::vector<int> ids;
   for (size_t id = 0; id < points_.size(); ++id) {
     const WalkPoint& p = points_[id];
     if (!p.valid || p.segment != segment_) continue;
@@ -893,17 +907,65 @@ void WalkMap::AdjustSegment() {
     }
     if (!any) continue;
     problem.points_in_world.push_back(p.position_in_segment);
-    ids.push_back(static_cast<int>(id));
+    snapshot.points.push_back(static_cast<int>(id));
   }
-  const LocalBundleSummary bundle = AdjustLocalBundle(options_.global_bundle, &problem);
-  if (!bundle.ran) return;
-  for (const auto& [keyframe, pose] : pose_of_keyframe) {
-    keyframes_[static_cast<size_t>(keyframe)].cam_from_segment =
-        problem.cam_from_world[static_cast<size_t>(pose)];
+  segment_bundle_snapshot_ = std::move(snapshot);
+  segment_bundle_.Start(options_.global_bundle, std::move(problem));
+}
+
+void WalkMap::ApplySegmentBundle(WalkKeyframeSummary* summary) {
+  BackgroundBundleResult result = segment_bundle_.Take();
+  const SegmentBundleSnapshot& snapshot = segment_bundle_snapshot_;
+  global_bundle_cpu_s_ += result.cpu_s;
+  if (summary) {
+    summary->global_bundle_applied = true;
+    summary->global_bundle_cpu_s = result.cpu_s;
   }
-  for (size_t i = 0; i < ids.size(); ++i) {
-    points_[static_cast<size_t>(ids[i])].position_in_segment = problem.points_in_world[i];
+  if (!result.summary.ran || snapshot.keyframes.empty()) return;
+  // New poses: the adjusted ones; a keyframe added since keeps its pose relative to the
+  // newest adjusted one, L: T_k' = T_k T_L^-1 T_L' (ORB-SLAM moves them down its spanning
+  // tree the same way).
+  std::map<int, Eigen::Isometry3d> corrected;
+  for (size_t i = 0; i < snapshot.keyframes.size(); ++i) {
+    corrected[snapshot.keyframes[i]] = result.problem.cam_from_world[i];
   }
+  const int newest = snapshot.keyframes.back();
+  const Eigen::Isometry3d old_from_new =
+      keyframes_[static_cast<size_t>(newest)].cam_from_segment.inverse() * corrected.at(newest);
+  for (size_t i = static_cast<size_t>(newest) + 1; i < keyframes_.size(); ++i) {
+    const WalkKeyframe& k = keyframes_[i];
+    if (k.registered && k.segment == snapshot.segment) {
+      corrected[static_cast<int>(i)] = k.cam_from_segment * old_from_new;
+    }
+  }
+  // Points: the adjusted positions; those made since follow their first observer,
+  // X' = T_r'^-1 T_r X.
+  std::vector<bool> adjusted(points_.size(), false);
+  for (size_t j = 0; j < snapshot.points.size(); ++j) {
+    WalkPoint& p = points_[static_cast<size_t>(snapshot.points[j])];
+    if (!p.valid) continue;
+    p.position_in_segment = result.problem.points_in_world[j];
+    adjusted[static_cast<size_t>(snapshot.points[j])] = true;
+  }
+  for (size_t id = 0; id < points_.size(); ++id) {
+    WalkPoint& p = points_[id];
+    if (adjusted[id] || !p.valid || p.segment != snapshot.segment || p.observations.empty()) {
+      continue;
+    }
+    const int first = p.observations.front().keyframe;
+    const auto it = corrected.find(first);
+    if (it == corrected.end()) continue;
+    p.position_in_segment =
+        it->second.inverse() *
+        (keyframes_[static_cast<size_t>(first)].cam_from_segment * p.position_in_segment);
+  }
+  for (const auto& [i, pose] : corrected)
+    keyframes_[static_cast<size_t>(i)].cam_from_segment = pose;
+  ++global_bundles_;
+}
+
+void WalkMap::Finish() {
+  if (segment_bundle_.running()) ApplySegmentBundle(nullptr);
 }
 
 int WalkMap::TriangulateWith(int keyframe, int other, const std::vector<Match>& matches) {

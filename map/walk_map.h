@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "map/background_bundle.h"
 #include "map/local_bundle.h"
 #include "map/pose_graph.h"
 #include "recon/features.h"
@@ -89,9 +90,18 @@ struct WalkOptions {
   int min_loop_inliers = 50;
   int loop_candidates = 2;
   PoseGraphOptions pose_graph;
+  /// After a loop, the bundle adjustment of the whole segment runs on a copy of it in a thread
+  /// of its own while keyframes go on being added (ORB-SLAM's global bundle adjustment after
+  /// a loop, Mur-Artal & Tardos 2017): at the end of the first keyframe after it finished, the
+  /// adjusted poses and points replace theirs, the keyframes added meanwhile keep their pose
+  /// relative to the newest adjusted keyframe and the points they made follow their first
+  /// observer. >= 0: at the end of exactly that many keyframes after the loop's, waiting for
+  /// it if it still runs, so that a run is the same on every machine (the eval's setting).
+  int global_bundle_apply_after = -1;
   /// Segments with more keyframes get, after a loop, a bundle adjustment of the windows at
-  /// both ends of the loop instead of one of the whole segment.
-  int global_bundle_max_keyframes = 60;
+  /// both ends of the loop (in the walk's thread) instead of one of the whole segment (in the
+  /// background; its CPU and memory grow with the segment: 2 s for 102 keyframes here).
+  int global_bundle_max_keyframes = 150;
   LocalBundleOptions global_bundle = [] {
     LocalBundleOptions b;
     b.max_iterations = 15;
@@ -120,10 +130,14 @@ struct WalkKeyframeSummary {
   int loop_to = -1;                ///< Closed a loop with this keyframe (-1: none).
   double loop_correction_m = 0.0;  ///< How far the loop moved this keyframe (map units).
   double loop_s = 0.0;             ///< Of time_s: the loop's pose graph and bundle adjustment.
-  int prior_matches = 0;           ///< PnP candidates from the search around the prior.
-  int matches = 0;                 ///< Descriptor matches to the newest keyframes.
-  int matches_3d = 0;              ///< Of them, with a map point (PnP input).
-  int projected_matches = 0;       ///< Map points found by projection after the pose.
+  /// The background bundle adjustment of the segment was applied at the end of this keyframe
+  /// (of time_s: the wait for it, if any, and moving the map).
+  bool global_bundle_applied = false;
+  double global_bundle_cpu_s = 0.0;  ///< Its own thread's CPU time (not in time_s).
+  int prior_matches = 0;             ///< PnP candidates from the search around the prior.
+  int matches = 0;                   ///< Descriptor matches to the newest keyframes.
+  int matches_3d = 0;                ///< Of them, with a map point (PnP input).
+  int projected_matches = 0;         ///< Map points found by projection after the pose.
   int pnp_inliers = 0;
   int new_points = 0;          ///< Triangulated with this keyframe.
   double bundle_rms_px = 0.0;  ///< The local BA's final RMS (0 when it did not run).
@@ -193,6 +207,13 @@ class WalkMap {
   [[nodiscard]] int merges() const { return merges_; }
   [[nodiscard]] int lost_keyframes() const { return lost_keyframes_; }
   [[nodiscard]] int loop_closures() const { return loop_closures_; }
+  /// Background bundle adjustments of a segment applied to the map.
+  [[nodiscard]] int global_bundles() const { return global_bundles_; }
+  /// CPU time of their threads, in all.
+  [[nodiscard]] double global_bundle_cpu_s() const { return global_bundle_cpu_s_; }
+  /// Waits for a background bundle adjustment still running and applies it: the map is
+  /// final after this (call before reading it for an entry).
+  void Finish();
 
  private:
   // Indices of the current segment's registered keyframes, oldest first.
@@ -224,8 +245,12 @@ class WalkMap {
   bool Bridge(int keyframe, WalkKeyframeSummary* summary);
   bool TryMerge(int keyframe, WalkKeyframeSummary* summary);
   bool TryCloseLoop(int keyframe, WalkKeyframeSummary* summary);
-  // Bundle adjustment of every keyframe of the segment, its two oldest fixed.
-  void AdjustSegment();
+  // Starts the bundle adjustment of every keyframe of the segment (its two oldest fixed) in
+  // the background, after the loop closed by `keyframe`.
+  void StartSegmentBundle(int keyframe);
+  // Applies the background bundle adjustment (waits for it); `summary` (may be null) is the
+  // keyframe's at whose end it happens.
+  void ApplySegmentBundle(WalkKeyframeSummary* summary);
   // Sets the keyframe's pose, its observations of the `inliers` (keypoint, point) that
   // reproject, searches the local map by projection and triangulates with `other`.
   void Accept(int keyframe, const Eigen::Isometry3d& cam_from_segment, int segment,
@@ -254,6 +279,16 @@ class WalkMap {
   int lost_keyframes_ = 0;
   int loop_closures_ = 0;
   int last_loop_keyframe_ = -1;
+  int global_bundles_ = 0;
+  double global_bundle_cpu_s_ = 0.0;
+  // The running background adjustment and what its problem's poses and points are.
+  BackgroundBundle segment_bundle_;
+  struct SegmentBundleSnapshot {
+    int segment = -1;
+    int loop_keyframe = -1;
+    std::vector<int> keyframes;  // Per pose of the problem, oldest first.
+    std::vector<int> points;     // Per point of the problem.
+  } segment_bundle_snapshot_;
 };
 
 }  // namespace mm

@@ -68,6 +68,8 @@ class WalkTracker {
   WalkFrameStep AddFrame(const cv::Mat& gray, double timestamp_s);
 
   [[nodiscard]] const WalkMap& map() const { return map_; }
+  /// The walk is over: the map's background work is finished and applied (WalkMap::Finish).
+  void Finish() { map_.Finish(); }
   /// The parallax (deg) of the newest frame against the last keyframe (0 before the second).
   [[nodiscard]] double parallax_deg() const { return last_decision_.median_parallax_deg; }
   [[nodiscard]] const GateDecision& last_decision() const { return last_decision_; }

@@ -104,6 +104,12 @@ void Daemon::OnWalkDone() {
       spdlog::info("walk {}: keyframe {} closed a loop with keyframe {} (moved {:.3f} map units)",
                    walks_, k.index, k.loop_to, k.loop_correction_m);
     }
+    if (k.global_bundle_applied) {
+      spdlog::info(
+          "walk {}: keyframe {}: the segment's bundle adjustment after the loop applied "
+          "({:.2f} s CPU in the background)",
+          walks_, k.index, k.global_bundle_cpu_s);
+    }
     Emit({{"event", "walk_keyframe"},
           {"walk", walks_},
           {"keyframe", k.index},
@@ -113,6 +119,7 @@ void Daemon::OnWalkDone() {
           {"relocalized_to", k.relocalized_to},
           {"merged_segment", k.merged_segment},
           {"loop_to", k.loop_to},
+          {"global_bundle_applied", k.global_bundle_applied},
           {"pnp_inliers", k.pnp_inliers},
           {"new_points", k.new_points},
           {"seconds", k.time_s}});

@@ -259,6 +259,7 @@ WalkOutcome WalkThread::Finish() {
     reason = stop_.value_or("operator");
   }
   out.stop_reason = reason;
+  tracker_->Finish();
   const WalkMap& map = tracker_->map();
   out.keyframes = static_cast<int>(map.keyframes().size());
   out.segments = map.segments();

@@ -1,6 +1,7 @@
 // `monomesh eval --walk` (map/walk_map.h through eval/walk_eval.h): the walk's keyframe poses
-// against the ground truth. The 17 TUM keyframes, every one a keyframe; and the synthetic
-// L-shaped corridor walk (300 frames round the corner) with the gate choosing the keyframes.
+// against the ground truth. The 17 TUM keyframes, every one a keyframe; the synthetic
+// L-shaped corridor walk (300 frames round the corner) with the gate choosing the keyframes,
+// once and with a loop; the hand-held kitchen.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "tests/support/monomesh_eval.h"
 #include "tests/support/shared_data.h"
@@ -100,6 +102,59 @@ void WriteListWithInsert(const fs::path& data, const fs::path& list_file, double
     list << timestamp << " " << (data / line.substr(line.find(' ') + 1)).string() << "\n";
     if (++n == 10) list << std::to_string(timestamp_s) << " " << insert.string() << "\n";
   }
+}
+
+// Round the corridor's corner, back to its start (the jump is relocalised) and on past the
+// first keyframes, at 1 deg of parallax: the second pass recognises the first (a loop), the
+// pose graph spreads the correction and the segment's bundle adjustment runs in the
+// background, applied two keyframes after the loop (the eval's setting). Measured: 105
+// keyframes, one loop, ATE 0.11 cm over 23.3 m; with the windows at both ends of the loop
+// adjusted instead of the whole segment (the walk's thread has no time for it), 0.75 cm.
+TEST(EvalWalk, ALoopIsClosedAndItsSegmentAdjustedInTheBackground) {
+  ASSERT_FALSE(Monomesh().empty()) << "MONOMESH is not set (run through ctest)";
+  const fs::path dir = FreshTempDir("eval_walk_loop");
+  std::string error;
+  const fs::path seq = SynthFixture(kCorridorWalkSeed2, dir, &error);
+  ASSERT_FALSE(seq.empty()) << error;
+  std::ifstream rgb(seq / "rgb.txt");
+  std::vector<std::string> frames;
+  for (std::string line; std::getline(rgb, line);) {
+    // `timestamp path`, the path made absolute (the list is read from another folder).
+    const size_t space = line.find(' ');
+    if (line.empty() || line[0] == '#' || space == std::string::npos) continue;
+    frames.push_back(line.substr(0, space) + " " + (seq / line.substr(space + 1)).string());
+  }
+  ASSERT_EQ(frames.size(), 300u);
+  const fs::path list = dir / "lap_and_a_half.txt";
+  {
+    std::ofstream out(list);
+    for (const std::string& f : frames) out << f << "\n";
+    for (size_t i = 0; i < 150; ++i) out << frames[i] << "\n";
+  }
+  const json r =
+      WalkEval("--dataset " + seq.string() + " --calib " + (seq / "calib.toml").string() +
+                   " --list " + list.string() + " --parallax-deg 1 --quiet",
+               dir / "walk.json");
+  const json& w = r["summary"]["walk"];
+  std::cout << "[ figures  ] " << w.dump() << "\n";
+  EXPECT_EQ(w["frames"].get<int>(), 450);
+  EXPECT_EQ(w["segments"].get<int>(), 1);
+  EXPECT_EQ(w["registered"].get<int>(), w["keyframes"].get<int>());
+  EXPECT_GE(w["loop_closures"].get<int>(), 1);
+  EXPECT_GE(w["global_bundles"].get<int>(), 1);
+  EXPECT_GT(w["global_bundle_cpu_s"].get<double>(), 0.0);
+  EXPECT_LE(w["ate_rmse_m"].get<double>(), 0.003);
+  const json& keyframes = r["keyframes"];
+  int loops = 0;
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    if (keyframes[i]["loop_to"].get<int>() < 0) continue;
+    ++loops;
+    // Applied two keyframes later (or when the walk ended).
+    if (i + 2 < keyframes.size() && loops == 1) {
+      EXPECT_TRUE(keyframes[i + 2]["global_bundle_applied"].get<bool>()) << keyframes[i + 2].dump();
+    }
+  }
+  EXPECT_EQ(loops, w["loop_closures"].get<int>());
 }
 
 // A keyframe from somewhere else (a corridor frame in the middle of the TUM office keyframes)
