@@ -71,6 +71,10 @@ std::string WalkOptions::Check() const {
   if (min_loop_inliers < 6) return "min_loop_inliers: must be >= 6";
   if (loop_candidates < 0) return "loop_candidates: must be >= 0";
   if (global_bundle_max_keyframes < 0) return "global_bundle_max_keyframes: must be >= 0";
+  if (global_bundle_max_observations < 0) {
+    return "global_bundle_max_observations: must be >= 0";
+  }
+  if (global_bundle_apply_after < -1) return "global_bundle_apply_after: must be >= -1";
   if (std::string p = pose_graph.Check(); !p.empty()) return "pose_graph." + p;
   if (std::string p = global_bundle.Check(); !p.empty()) return "global_bundle." + p;
   if (window < 3) return "window: must be >= 3 (two keyframes are fixed)";
@@ -862,9 +866,7 @@ bool WalkMap::TryCloseLoop(int keyframe, WalkKeyframeSummary* summary) {
         graph.cam_from_world[static_cast<size_t>(n)].ToIsometry();
   }
   FusePoints(agreeing);
-  if (static_cast<int>(segment.size()) <= options_.global_bundle_max_keyframes) {
-    StartSegmentBundle(keyframe);
-  } else {
+  if (!StartSegmentBundle(keyframe)) {
     // A long walk: the pose graph has spread the drift; the bundle adjustment stays local to
     // both ends of the loop (its CPU and memory grow with the segment).
     AdjustWindow(keyframe, summary);
@@ -879,9 +881,10 @@ bool WalkMap::TryCloseLoop(int keyframe, WalkKeyframeSummary* summary) {
   return true;
 }
 
-void WalkMap::StartSegmentBundle(int keyframe) {
+bool WalkMap::StartSegmentBundle(int keyframe) {
   const std::vector<int> segment = SegmentKeyframes();
-  if (segment.size() < 3) return;
+  if (segment.size() < 3) return true;  // Nothing to adjust.
+  if (static_cast<int>(segment.size()) > options_.global_bundle_max_keyframes) return false;
   LocalBundleProblem problem;
   problem.k = K_;
   SegmentBundleSnapshot snapshot;
@@ -909,8 +912,12 @@ void WalkMap::StartSegmentBundle(int keyframe) {
     problem.points_in_world.push_back(p.position_in_segment);
     snapshot.points.push_back(static_cast<int>(id));
   }
+  if (static_cast<int>(problem.observations.size()) > options_.global_bundle_max_observations) {
+    return false;
+  }
   segment_bundle_snapshot_ = std::move(snapshot);
   segment_bundle_.Start(options_.global_bundle, std::move(problem));
+  return true;
 }
 
 void WalkMap::ApplySegmentBundle(WalkKeyframeSummary* summary) {

@@ -102,6 +102,8 @@ struct WalkOptions {
   /// both ends of the loop (in the walk's thread) instead of one of the whole segment (in the
   /// background; its CPU and memory grow with the segment: 2 s for 102 keyframes here).
   int global_bundle_max_keyframes = 150;
+  /// ... or more observations (its memory: about 410 bytes each with Ceres's, measured).
+  int global_bundle_max_observations = 200000;
   LocalBundleOptions global_bundle = [] {
     LocalBundleOptions b;
     b.max_iterations = 15;
@@ -246,8 +248,9 @@ class WalkMap {
   bool TryMerge(int keyframe, WalkKeyframeSummary* summary);
   bool TryCloseLoop(int keyframe, WalkKeyframeSummary* summary);
   // Starts the bundle adjustment of every keyframe of the segment (its two oldest fixed) in
-  // the background, after the loop closed by `keyframe`.
-  void StartSegmentBundle(int keyframe);
+  // the background, after the loop closed by `keyframe`; false (nothing started) when the
+  // segment is larger than global_bundle_max_keyframes or _observations.
+  bool StartSegmentBundle(int keyframe);
   // Applies the background bundle adjustment (waits for it); `summary` (may be null) is the
   // keyframe's at whose end it happens.
   void ApplySegmentBundle(WalkKeyframeSummary* summary);
