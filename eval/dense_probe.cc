@@ -19,13 +19,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
+#include "base/clock.h"
 #include "base/stats.h"
 #include "calib/calib_io.h"
 #include "dataset/tum.h"
@@ -35,12 +35,6 @@
 #include "render/renderer.h"
 
 namespace {
-
-double CpuNow() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 cv::Mat Colorize(const cv::Mat& rho, double lo, double hi) {
   cv::Mat u8(rho.size(), CV_8UC1, cv::Scalar(0));
@@ -113,7 +107,7 @@ int main(int argc, char** argv) {
       }
       between = std::move(chosen.views);
     }
-    double t0 = CpuNow();
+    double t0 = ProcessCpuSeconds();
     // MM_GTPOSE=1: the sweep runs on the ground-truth relative pose (translation scaled to the
     // estimate's length), to separate the pose's share of the depth error from the matching's.
     if (const char* e = std::getenv("MM_GTPOSE"); e && std::atoi(e) > 0) {
@@ -134,7 +128,7 @@ int main(int argc, char** argv) {
       d = ComputeDenseDepth(ga, gb, camera.K(), r.geometry.rotation, r.geometry.translation,
                             r.geometry.points_in_cam_a, po.dense, between);
     }
-    const double dense_s = (CpuNow() - t0) / kRuns;
+    const double dense_s = (ProcessCpuSeconds() - t0) / kRuns;
     r.mesh = BuildDenseMesh(d, camera.K(), a.cols, a.rows, po.dense_mesh, &r.dense_mesh_summary);
     const MeshDepthEval me = EvaluatePairMesh(r, camera.K(), gt);
     const double scale = ScaleFromPoints(r.geometry.points_in_cam_a, r.point_pixels_a, gt);
@@ -179,7 +173,8 @@ int main(int argc, char** argv) {
         // Splat 2x2 (a pixel of A covers about a pixel of B).
         for (int j = 0; j <= 1; ++j) {
           for (int i = 0; i <= 1; ++i) {
-            const int xx = static_cast<int>(std::floor(ub)) + i, yy = static_cast<int>(std::floor(vb)) + j;
+            const int xx = static_cast<int>(std::floor(ub)) + i,
+                      yy = static_cast<int>(std::floor(vb)) + j;
             if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
             zbuf.at<float>(yy, xx) = std::min(zbuf.at<float>(yy, xx), static_cast<float>(Xb.z()));
           }
@@ -213,14 +208,14 @@ int main(int argc, char** argv) {
     cv::dilate(edge, near_edge, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(7, 7)));
 
     enum { kRange, kNotInB, kOccluded, kEdge, kLowTex, kOther, kClasses };
-    const char* names[kClasses] = {"out of range", "outside B", "occluded in B",
+    const char* names[kClasses] = {"out of range",  "outside B",   "occluded in B",
                                    "GT depth edge", "low texture", "other"};
     int count[kClasses] = {}, total_gt = 0, covered = 0;
     int count_far[kClasses] = {}, count_near[kClasses] = {};
     std::vector<double> errs;
     cv::Mat err_vis(h, w, CV_8UC3, cv::Scalar(0, 0, 0));
     cv::Mat cls_vis(h, w, CV_8UC3, cv::Scalar(0, 0, 0));
-    const cv::Scalar cls_col[kClasses] = {{255, 0, 255}, {255, 128, 0}, {0, 0, 255},
+    const cv::Scalar cls_col[kClasses] = {{255, 0, 255}, {255, 128, 0},   {0, 0, 255},
                                           {0, 255, 255}, {255, 255, 255}, {0, 128, 255}};
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) {
@@ -247,7 +242,8 @@ int main(int argc, char** argv) {
           c = kNotInB;
         } else {
           const cv::Vec2f ub = ub_map.at<cv::Vec2f>(y, x);
-          const int xx = static_cast<int>(std::lround(ub[0])), yy = static_cast<int>(std::lround(ub[1]));
+          const int xx = static_cast<int>(std::lround(ub[0])),
+                    yy = static_cast<int>(std::lround(ub[1]));
           const float zmin = zbuf.at<float>(std::clamp(yy, 0, h - 1), std::clamp(xx, 0, w - 1));
           if (zb.at<float>(y, x) > 1.05f * zmin) {
             c = kOccluded;
@@ -258,14 +254,18 @@ int main(int argc, char** argv) {
           }
         }
         ++count[c];
-        if (e_rho < g) ++count_far[c]; else ++count_near[c];
-        cls_vis.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<uint8_t>(cls_col[c][0]),
-                                                static_cast<uint8_t>(cls_col[c][1]),
-                                                static_cast<uint8_t>(cls_col[c][2]));
+        if (e_rho < g)
+          ++count_far[c];
+        else
+          ++count_near[c];
+        cls_vis.at<cv::Vec3b>(y, x) =
+            cv::Vec3b(static_cast<uint8_t>(cls_col[c][0]), static_cast<uint8_t>(cls_col[c][1]),
+                      static_cast<uint8_t>(cls_col[c][2]));
       }
     }
     const double cov = static_cast<double>(covered) / total_gt;
-    const size_t off = static_cast<size_t>(std::count_if(errs.begin(), errs.end(), [](double e) { return e > 0.1; }));
+    const size_t off = static_cast<size_t>(
+        std::count_if(errs.begin(), errs.end(), [](double e) { return e > 0.1; }));
     std::printf(
         "(0,%d) dense %.3f s CPU, %d planes (rho %.4f..%.4f step %.5f)\n"
         "  depth map: coverage %.3f, median %.4f, p90 %.4f, off %.4f (%zu px)\n"
@@ -275,8 +275,9 @@ int main(int argc, char** argv) {
         static_cast<double>(off) / static_cast<double>(errs.size()), off, me.coverage,
         me.median_rel_err, me.p90_rel_err, me.flying);
     for (int c = 0; c < kClasses; ++c) {
-      std::printf("    %-14s %5d (%4.1f %% of off; est. too far %d, too near %d)\n", names[c], count[c],
-                  100.0 * count[c] / std::max<size_t>(1, off), count_far[c], count_near[c]);
+      std::printf("    %-14s %5d (%4.1f %% of off; est. too far %d, too near %d)\n", names[c],
+                  count[c], 100.0 * count[c] / std::max<size_t>(1, off), count_far[c],
+                  count_near[c]);
     }
     // PNGs.
     double lo = 1e30, hi = 0;
@@ -297,7 +298,8 @@ int main(int argc, char** argv) {
     cv::cvtColor(a8, a3, cv::COLOR_GRAY2BGR);
     cv::Mat conf3;
     cv::cvtColor(conf8, conf3, cv::COLOR_GRAY2BGR);
-    cv::hconcat(std::vector<cv::Mat>{a3, Colorize(d.inverse_depth, lo, hi), Colorize(gt_rho, lo, hi)}, top);
+    cv::hconcat(
+        std::vector<cv::Mat>{a3, Colorize(d.inverse_depth, lo, hi), Colorize(gt_rho, lo, hi)}, top);
     cv::hconcat(std::vector<cv::Mat>{err_vis, cls_vis, conf3}, bottom);
     cv::vconcat(top, bottom, all);
     cv::imwrite(p + "panel.png", all);

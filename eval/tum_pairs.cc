@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
@@ -12,6 +11,7 @@
 #include <optional>
 #include <random>
 
+#include "base/clock.h"
 #include "calib/undistort.h"
 #include "dataset/tum.h"
 #include "entry/json_text.h"
@@ -19,12 +19,6 @@
 
 namespace mm {
 namespace {
-
-double CpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 // Relative depth error of the triangulated points against a TUM depth map of frame A, after
 // one median scale factor (the reconstruction is up to scale).
@@ -204,12 +198,12 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
   const auto features_of = [&](size_t k) -> const CachedFrame& {
     CachedFrame& f = frame_at(k);
     if (!f.features) {
-      const double cpu_start = CpuSeconds();
+      const double cpu_start = ProcessCpuSeconds();
       const auto wall_start = std::chrono::steady_clock::now();
       f.features = ExtractKeyframeFeatures(f.image, options.pair);
       f.sift_wall_s =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-      f.sift_cpu_s = CpuSeconds() - cpu_start;
+      f.sift_cpu_s = ProcessCpuSeconds() - cpu_start;
     }
     return f;
   };
@@ -277,10 +271,10 @@ EvalResult EvaluateTumPairs(const std::filesystem::path& dataset, const BouguetC
     }
     const double features_a_wall_s = a.sift_wall_s;
     const double features_a_cpu_s = a.sift_cpu_s;
-    const double cpu_start = CpuSeconds();
+    const double cpu_start = ProcessCpuSeconds();
     PairReconstruction r =
         ReconstructPair(features_a, image_a, image_b, *used, options.pair, {}, between);
-    p.cpu_after_b_s = CpuSeconds() - cpu_start;
+    p.cpu_after_b_s = ProcessCpuSeconds() - cpu_start;
     p.cpu_two_images_s = features_a_cpu_s + p.cpu_after_b_s;
     p.time_after_b_s = r.times.total_s();
     r.times.features_a_s = features_a_wall_s;

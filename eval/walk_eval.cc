@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
@@ -12,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "base/clock.h"
 #include "base/stats.h"
 #include "calib/undistort.h"
 #include "dataset/tum.h"
@@ -23,12 +23,6 @@
 
 namespace mm {
 namespace {
-
-double ThreadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 // Scale of the Sim(3) that aligns the estimated centres of `ids` to their ground truth; 0 with
 // fewer than 3.

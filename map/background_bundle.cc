@@ -1,22 +1,12 @@
 #include "map/background_bundle.h"
 
-#include <time.h>
-
 #include <chrono>
 #include <stdexcept>
 #include <utility>
 
+#include "base/clock.h"
+
 namespace mm {
-namespace {
-
-double ThreadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-}  // namespace
-
 void BackgroundBundle::Start(const LocalBundleOptions& options, LocalBundleProblem problem) {
   if (running()) future_.wait();
   future_ = std::async(std::launch::async, [options, problem = std::move(problem)]() mutable {
