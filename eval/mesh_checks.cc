@@ -45,7 +45,7 @@ MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const Rend
     out.failure_reason = r.failure_reason;
     return out;
   }
-  std::vector<double> errors;
+  std::vector<double> errors, ratios;
   for (int y = 0; y < gt_depth_m.rows; ++y) {
     for (int x = 0; x < gt_depth_m.cols; ++x) {
       const float gt = gt_depth_m.at<float>(y, x);
@@ -55,6 +55,7 @@ MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const Rend
       if (!(d > 0)) continue;
       ++out.covered_pixels;
       errors.push_back(std::abs(scale * d - gt) / gt);
+      ratios.push_back(scale * d / gt);
     }
   }
   if (out.gt_pixels == 0) {
@@ -66,6 +67,7 @@ MeshDepthEval EvaluateMeshDepth(Renderer& renderer, const Mesh& mesh, const Rend
     const auto off = std::count_if(errors.begin(), errors.end(), [](double e) { return e > 0.10; });
     out.flying = static_cast<double>(off) / static_cast<double>(errors.size());
     out.median_rel_err = QuantileOf(errors, 0.5);
+    out.median_ratio = QuantileOf(std::move(ratios), 0.5);
     out.p90_rel_err = QuantileOf(std::move(errors), 0.9);
   }
   out.success = true;

@@ -22,6 +22,9 @@ struct MeshDepthEval {
   double coverage = 0.0;        ///< covered_pixels / gt_pixels.
   double median_rel_err = 0.0;  ///< |scale * d_mesh - d_gt| / d_gt over covered pixels.
   double p90_rel_err = 0.0;
+  /// Median of scale * d_mesh / d_gt: a bias (a scale or pose off) moves it from 1, noise
+  /// does not.
+  double median_ratio = 0.0;
   /// Share of the covered pixels off by more than 10 % ("flying": surfaces where there are
   /// none, usually bridges over depth discontinuities).
   double flying = 0.0;

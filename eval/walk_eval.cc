@@ -331,6 +331,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
         if (!e.success || e.covered_pixels == 0) continue;
         medians.push_back(e.median_rel_err);
         s.map_depth_rel_err_per_view.push_back(e.median_rel_err);
+        s.map_depth_ratio_per_view.push_back(e.median_ratio);
         s.map_coverage_per_view.push_back(e.coverage);
         s.map_depth_rel_err_p90_max = std::max(s.map_depth_rel_err_p90_max, e.p90_rel_err);
         coverage += e.coverage;
@@ -470,6 +471,7 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                  {"views", s.map_depth_views},
                  {"coverage_mean", s.map_coverage_mean},
                  {"per_view", s.map_depth_rel_err_per_view},
+                 {"ratio_per_view", s.map_depth_ratio_per_view},
                  {"coverage_per_view", s.map_coverage_per_view}}},
                {"map_mesh",
                 {{"parts", s.map_mesh_parts},

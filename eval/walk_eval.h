@@ -119,6 +119,8 @@ struct WalkEvalSummary {
   double map_depth_rel_err_p90_max = 0.0;
   double map_coverage_mean = 0.0;
   std::vector<double> map_depth_rel_err_per_view;  ///< Each view's median, along the path.
+  /// Each view's median of d_mesh / d_gt (1: no bias; MeshDepthEval::median_ratio).
+  std::vector<double> map_depth_ratio_per_view;
   std::vector<double> map_coverage_per_view;
   int map_mesh_parts = 0;
   int map_mesh_triangles = 0;

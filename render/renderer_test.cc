@@ -156,9 +156,13 @@ TEST_F(RendererTest, MeshDepthEvaluationRecoversScaleAndError) {
   // 160; measured 0.489.
   EXPECT_NEAR(e.coverage, 79.5 / 160, 0.01);
   EXPECT_LT(e.median_rel_err, 1e-4);
-  // A wrong scale shows as error.
+  EXPECT_NEAR(e.median_ratio, 1.0, 1e-4);
+  // A wrong scale shows as error, and as a bias with its sign.
   const MeshDepthEval wrong = EvaluateMeshDepth(*renderer_, mesh, cam, gt, scale * 1.1);
   EXPECT_NEAR(wrong.median_rel_err, 0.1, 1e-3);
+  EXPECT_NEAR(wrong.median_ratio, 1.1, 1e-3);
+  const MeshDepthEval near = EvaluateMeshDepth(*renderer_, mesh, cam, gt, scale * 0.9);
+  EXPECT_NEAR(near.median_ratio, 0.9, 1e-3);
 }
 
 TEST_F(RendererTest, PreviewHasBothViews) {
