@@ -248,9 +248,8 @@ WalkKeyframeSummary WalkMap::AddKeyframe(const cv::Mat& gray, double timestamp_s
       StartSegment(index);
       summary.failure = "new segment: " + summary.failure;
     }
-  } else if (Register(index, segment_ == k.segment ? cam_from_segment_prior : nullptr, &summary)) {
-    k.joined = true;
-  } else if (Bridge(index, &summary)) {
+  } else if (Register(index, segment_ == k.segment ? cam_from_segment_prior : nullptr, &summary) ||
+             Bridge(index, &summary)) {
     k.joined = true;
   } else {
     // Relocalisation against every earlier keyframe of every segment (the newest ones were
@@ -469,6 +468,7 @@ bool WalkMap::Bridge(int keyframe, WalkKeyframeSummary* summary) {
   if (static_cast<int>(ratios.size()) < options_.min_bridge_points) return false;
   const double scale = MedianOf(ratios);
   std::vector<double> deviations;
+  deviations.reserve(ratios.size());
   for (double r : ratios) deviations.push_back(std::abs(r / scale - 1.0));
   if (!(scale > 0) || MedianOf(std::move(deviations)) > 0.1) return false;
   Eigen::Isometry3d b_from_a = Eigen::Isometry3d::Identity();

@@ -336,6 +336,7 @@ WalkMesh BuildWalkMesh(const WalkMap& map, int segment, const Eigen::Matrix3d& K
     cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
     const std::vector<int> point_ids = points_of(k);
     std::vector<Eigen::Vector3d> points_in_cam;
+    points_in_cam.reserve(point_ids.size());
     for (int id : point_ids) {
       points_in_cam.push_back(keyframe.cam_from_segment *
                               points[static_cast<size_t>(id)].position_in_segment);

@@ -55,7 +55,7 @@ void WalkTracker::Seed(const cv::Mat& gray) {
     const Eigen::Vector2f& p = k.keypoint_pixels[i];
     const int cx = std::clamp(static_cast<int>(p.x() / cell_w), 0, cells - 1);
     const int cy = std::clamp(static_cast<int>(p.y() / cell_h), 0, cells - 1);
-    int& n = in_cell[static_cast<size_t>(cy * cells + cx)];
+    int& n = in_cell[static_cast<size_t>(cy) * cells + static_cast<size_t>(cx)];
     if (n >= per_cell) continue;
     ++n;
     track_pixels_.emplace_back(p.x(), p.y());
