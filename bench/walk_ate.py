@@ -68,8 +68,9 @@ def quat_to_rot(w, x, y, z):
 
 
 def read_images_txt(path):
-    """{name: camera centre} of an images.txt (QW QX QY QZ TX TY TZ: cam_from_world; C = -R^T t)."""
-    centres = {}
+    """{name: (R, t, [(x, y, point3D id)])} of an images.txt: R, t cam_from_world from QW QX QY
+    QZ TX TY TZ, and the image's 2-D points from the line after it (possibly none)."""
+    images = {}
     lines = [l for l in open(path).read().split("\n") if not l.startswith("#")]
     i = 0
     while i < len(lines):
@@ -78,38 +79,44 @@ def read_images_txt(path):
             i += 1
             continue
         qw, qx, qy, qz, tx, ty, tz = (float(v) for v in f[1:8])
-        r = quat_to_rot(qw, qx, qy, qz)
-        t = (tx, ty, tz)
-        centres[" ".join(f[9:])] = [-sum(r[k][j] * t[k] for k in range(3)) for j in range(3)]
-        i += 2  # The next line holds the image's 2-D points (possibly none).
-    return centres
+        o = lines[i + 1].split() if i + 1 < len(lines) else []
+        points = [(float(o[j]), float(o[j + 1]), int(o[j + 2])) for j in range(0, len(o) - 2, 3)]
+        images[" ".join(f[9:])] = (quat_to_rot(qw, qx, qy, qz), (tx, ty, tz), points)
+        i += 2
+    return images
 
 
-def read_model_depths(model_dir):
-    """{name: [(x, y, depth in the camera)]} of a text model's observations of its 3-D points."""
+def centre_of(image):
+    """Camera centre C = -R^T t of an images.txt entry."""
+    r, t, _ = image
+    return [-sum(r[k][j] * t[k] for k in range(3)) for j in range(3)]
+
+
+def read_points3d(model_dir):
+    """{point3D id: [X, Y, Z]} of a text model's points3D.txt."""
     points = {}
     for line in open(os.path.join(model_dir, "points3D.txt")):
         f = line.split()
         if f and not f[0].startswith("#"):
             points[int(f[0])] = [float(v) for v in f[1:4]]
-    out = {}
-    lines = [l for l in open(os.path.join(model_dir, "images.txt")).read().split("\n")
-             if not l.startswith("#")]
-    for i in range(0, len(lines) - 1, 2):
-        f = lines[i].split()
-        if len(f) < 10:
-            continue
-        qw, qx, qy, qz, tx, ty, tz = (float(v) for v in f[1:8])
-        r = quat_to_rot(qw, qx, qy, qz)
-        o = lines[i + 1].split()
-        obs = []
-        for j in range(0, len(o) - 2, 3):
-            p = points.get(int(o[j + 2]))
-            if p is not None:
-                z = sum(r[2][k] * p[k] for k in range(3)) + tz
-                obs.append((float(o[j]), float(o[j + 1]), z))
-        out[" ".join(f[9:])] = obs
+    return points
+
+
+def model_depths(points, image):
+    """[(x, y, depth in the camera)] of an image's observations of the model's `points`."""
+    r, t, observations = image
+    out = []
+    for x, y, pid in observations:
+        p = points.get(pid)
+        if p is not None:
+            out.append((x, y, sum(r[2][k] * p[k] for k in range(3)) + t[2]))
     return out
+
+
+def median(values):
+    """The upper median (base/stats.h's MedianOf); None for no values."""
+    values = sorted(values)
+    return values[len(values) // 2] if values else None
 
 
 def depth_scale(dataset, depth_list, t, obs):
@@ -127,7 +134,7 @@ def depth_scale(dataset, depth_list, t, obs):
         d = depth.getpixel((u, v)) / 5000.0
         if d > 0:
             ratios.append(d / z)
-    return sorted(ratios)[len(ratios) // 2] if ratios else None
+    return median(ratios)
 
 
 def jacobi_eigen(a):
@@ -218,13 +225,14 @@ def main():
         return self_test()
     names = read_list(os.path.join(args.dataset, args.list))
     models = [read_images_txt(os.path.join(d, "images.txt")) for d in args.models]
-    best = max(models, key=len) if models else {}
+    best_index = max(range(len(models)), key=lambda i: len(models[i])) if models else None
+    best = models[best_index] if models else {}
     gt = read_groundtruth(os.path.join(args.dataset, "groundtruth.txt"))
     src, dst, order = [], [], []
     for name in sorted((n for n in best if n in names), key=names.get):
         p = position_at(gt, names[name])
         if p is not None:
-            src.append(best[name])
+            src.append(centre_of(best[name]))
             dst.append(p)
             order.append(name)
     out = {"total": len(names), "models": len(models), "registered": len(best),
@@ -243,16 +251,15 @@ def main():
         if third >= 3 and os.path.exists(depth_txt):
             depth_list = [(float(f[0]), f[1]) for f in (l.split() for l in open(depth_txt))
                           if len(f) >= 2 and not f[0].startswith("#")]
-            best_dir = max(args.models, key=lambda d: len(models[args.models.index(d)]))
-            obs = read_model_depths(best_dir)
-            scales = [depth_scale(args.dataset, depth_list, names[n], obs.get(n, []))
-                      for n in order]
+            points = read_points3d(args.models[best_index])
+            scales = [depth_scale(args.dataset, depth_list, names[n],
+                                  model_depths(points, best[n])) for n in order]
 
-            def median_of(values):
-                values = sorted(v for v in values if v is not None)
-                return values[len(values) // 2] if len(values) >= 3 else None
+            def third_median(values):
+                values = [v for v in values if v is not None]
+                return median(values) if len(values) >= 3 else None
 
-            first, last = median_of(scales[:third]), median_of(scales[-third:])
+            first, last = third_median(scales[:third]), third_median(scales[-third:])
             if first and last:
                 out.update(depth_scale_drift=abs(last / first - 1))
     json.dump(out, sys.stdout)
