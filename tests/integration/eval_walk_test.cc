@@ -88,18 +88,27 @@ TEST(EvalWalk, SynthCorridorRoundTheCornerThroughTheGate) {
   fs::remove_all(dir);
 }
 
+// The `timestamp path` lines of a TUM list in `data`, each path made absolute (a list written
+// elsewhere is read from there).
+std::vector<std::string> AbsoluteListLines(const fs::path& data, const std::string& list_name) {
+  std::ifstream in(data / list_name);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) {
+    const size_t space = line.find(' ');
+    if (line.empty() || line[0] == '#' || space == std::string::npos) continue;
+    lines.push_back(line.substr(0, space) + " " + (data / line.substr(space + 1)).string());
+  }
+  return lines;
+}
+
 // Writes a list of the TUM office keyframes (absolute paths) with `insert` (timestamp, path)
 // after the tenth.
 void WriteListWithInsert(const fs::path& data, const fs::path& list_file, double timestamp_s,
                          const fs::path& insert) {
-  std::ifstream in(data / "keyframes_1hz.txt");
   std::ofstream list(list_file);
-  std::string line;
   int n = 0;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    const std::string timestamp = line.substr(0, line.find(' '));
-    list << timestamp << " " << (data / line.substr(line.find(' ') + 1)).string() << "\n";
+  for (const std::string& line : AbsoluteListLines(data, "keyframes_1hz.txt")) {
+    list << line << "\n";
     if (++n == 10) list << std::to_string(timestamp_s) << " " << insert.string() << "\n";
   }
 }
@@ -116,14 +125,7 @@ TEST(EvalWalk, ALoopIsClosedAndItsSegmentAdjustedInTheBackground) {
   std::string error;
   const fs::path seq = SynthFixture(kCorridorWalkSeed2, dir, &error);
   ASSERT_FALSE(seq.empty()) << error;
-  std::ifstream rgb(seq / "rgb.txt");
-  std::vector<std::string> frames;
-  for (std::string line; std::getline(rgb, line);) {
-    // `timestamp path`, the path made absolute (the list is read from another folder).
-    const size_t space = line.find(' ');
-    if (line.empty() || line[0] == '#' || space == std::string::npos) continue;
-    frames.push_back(line.substr(0, space) + " " + (seq / line.substr(space + 1)).string());
-  }
+  const std::vector<std::string> frames = AbsoluteListLines(seq, "rgb.txt");
   ASSERT_EQ(frames.size(), 300u);
   const fs::path list = dir / "lap_and_a_half.txt";
   {
@@ -155,6 +157,7 @@ TEST(EvalWalk, ALoopIsClosedAndItsSegmentAdjustedInTheBackground) {
     }
   }
   EXPECT_EQ(loops, w["loop_closures"].get<int>());
+  fs::remove_all(dir);
 }
 
 // A keyframe from somewhere else (a corridor frame in the middle of the TUM office keyframes)
