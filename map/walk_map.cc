@@ -971,6 +971,28 @@ void WalkMap::ApplySegmentBundle(WalkKeyframeSummary* summary) {
   ++global_bundles_;
 }
 
+void WalkMap::MoveKeyframes(const std::map<int, Eigen::Isometry3d>& cam_from_segment,
+                            const std::map<int, Eigen::Vector3d>& position_in_segment) {
+  for (size_t id = 0; id < points_.size(); ++id) {
+    WalkPoint& p = points_[id];
+    if (const auto it = position_in_segment.find(static_cast<int>(id));
+        it != position_in_segment.end()) {
+      p.position_in_segment = it->second;
+      continue;
+    }
+    if (!p.valid || p.observations.empty()) continue;
+    const int first = p.observations.front().keyframe;
+    const auto it = cam_from_segment.find(first);
+    if (it == cam_from_segment.end()) continue;
+    p.position_in_segment =
+        it->second.inverse() *
+        (keyframes_[static_cast<size_t>(first)].cam_from_segment * p.position_in_segment);
+  }
+  for (const auto& [i, pose] : cam_from_segment) {
+    keyframes_[static_cast<size_t>(i)].cam_from_segment = pose;
+  }
+}
+
 void WalkMap::Finish() {
   if (segment_bundle_.running()) ApplySegmentBundle(nullptr);
 }

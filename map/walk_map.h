@@ -22,6 +22,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -216,6 +217,11 @@ class WalkMap {
   /// Waits for a background bundle adjustment still running and applies it: the map is
   /// final after this (call before reading it for an entry).
   void Finish();
+  /// Gives keyframes new poses (index -> cam_from_segment) and points new positions (index ->
+  /// position_in_segment), e.g. from a refinement after the walk; every other point whose
+  /// first observer moved follows it, X' = T_r'^-1 T_r X.
+  void MoveKeyframes(const std::map<int, Eigen::Isometry3d>& cam_from_segment,
+                     const std::map<int, Eigen::Vector3d>& position_in_segment = {});
 
  private:
   // Indices of the current segment's registered keyframes, oldest first.

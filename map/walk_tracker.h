@@ -68,6 +68,8 @@ class WalkTracker {
   WalkFrameStep AddFrame(const cv::Mat& gray, double timestamp_s);
 
   [[nodiscard]] const WalkMap& map() const { return map_; }
+  /// The map, to refine once the walk is over (map/walk_refine.h).
+  WalkMap& mutable_map() { return map_; }
   /// The walk is over: the map's background work is finished and applied (WalkMap::Finish).
   void Finish() { map_.Finish(); }
   /// The parallax (deg) of the newest frame against the last keyframe (0 before the second).
