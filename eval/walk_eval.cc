@@ -48,6 +48,7 @@ std::string WalkEvalOptions::Check() const {
   if (!(max_gt_dt_s >= 0)) return "max_gt_dt_s: must be >= 0";
   if (map_depth_views < 0) return "map_depth_views: must be >= 0";
   if (std::string p = mesh.Check(); !p.empty()) return "mesh." + p;
+  if (std::string p = refinement.Check(); !p.empty()) return "refinement." + p;
   return {};
 }
 
@@ -156,6 +157,18 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   s.keyframes = static_cast<int>(result.keyframes.size());
   s.segments = map ? map->segments() : 0;
   s.cpu_per_frame_s_median = frame_cpu.empty() ? 0.0 : MedianOf(frame_cpu);
+  if (map && options.refine) {
+    // The walk's map, refined as the daemon refines it once a walk ends.
+    s.refinement = RefineSegment(
+        const_cast<WalkMap*>(map), LargestSegment(*map), k_matrix,
+        [&](int index) {
+          const size_t frame = static_cast<size_t>(result.keyframes[static_cast<size_t>(index)].frame);
+          cv::Mat image = cv::imread(frames[frame].path.string(), cv::IMREAD_GRAYSCALE);
+          if (undistorter && !image.empty()) image = undistorter->Apply(image);
+          return image;
+        },
+        options.refinement);
+  }
   if (map) {
     s.relocalizations = map->relocalizations();
     s.merges = map->merges();
@@ -325,8 +338,6 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
         view.width = depth.cols;
         view.height = depth.rows;
         view.cam_from_world = world_from_cam_gt[static_cast<size_t>(ids[j])].inverse();
-        view.far_plane = FarPlaneFor(world, view.cam_from_world);
-        view.near_plane = view.far_plane * 1e-4;
         const MeshDepthEval e = EvaluateMeshDepth(renderer, world, view, depth_m, 1.0);
         if (!e.success || e.covered_pixels == 0) continue;
         medians.push_back(e.median_rel_err);
@@ -409,6 +420,17 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
       s.depth_keyframes, 100.0 * s.point_depth_rel_err_median, 100.0 * s.point_depth_rel_err_p90,
       s.depth_points);
   std::string out = text;
+  if (s.refinement.ran) {
+    std::snprintf(text, sizeof text,
+                  "  refined after the walk: %d of %d pairs of keyframes verified, %d tracks, "
+                  "%d points with %d observations; RMS %.3f px; %.2f s CPU\n",
+                  s.refinement.verified_pairs, s.refinement.pairs, s.refinement.tracks,
+                  s.refinement.points, s.refinement.observations,
+                  s.refinement.bundle.final_rms_px, s.refinement.cpu_s);
+    out += text;
+  } else if (!s.refinement.skipped.empty()) {
+    out += "  not refined after the walk: " + s.refinement.skipped + "\n";
+  }
   if (s.map_depth_views > 0) {
     std::snprintf(text, sizeof text,
                   "  map mesh: %d parts, %d triangles; its depth from %d ground-truth poses: "
@@ -459,6 +481,16 @@ std::string WalkEvalToJson(const WalkEvalResult& result) {
                {"lost_keyframes", s.lost_keyframes},
                {"cpu_total_s", s.cpu_total_s},
                {"points", s.points},
+               {"refinement",
+                {{"ran", s.refinement.ran},
+                 {"skipped", s.refinement.skipped},
+                 {"pairs", s.refinement.pairs},
+                 {"verified_pairs", s.refinement.verified_pairs},
+                 {"tracks", s.refinement.tracks},
+                 {"points", s.refinement.points},
+                 {"observations", s.refinement.observations},
+                 {"rms_px", s.refinement.bundle.final_rms_px},
+                 {"cpu_s", s.refinement.cpu_s}}},
                {"point_depth_rel_err",
                 {{"median", s.point_depth_rel_err_median},
                  {"p90", s.point_depth_rel_err_p90},

@@ -22,6 +22,7 @@
 #include "calib/camera_model.h"
 #include "map/walk_map.h"
 #include "map/walk_mesh.h"
+#include "map/walk_refine.h"
 #include "recon/keyframe_gate.h"
 
 namespace mm {
@@ -45,6 +46,10 @@ struct WalkEvalOptions {
   /// against their depth maps; 0: no mesh.
   int map_depth_views = 5;
   WalkMeshOptions mesh;
+  /// After the walk, as the daemon does: the evaluated segment refined from tracks built
+  /// across its keyframes (map/walk_refine.h), before the figures and the mesh.
+  bool refine = true;
+  TrackRefineOptions refinement;
   [[nodiscard]] std::string Check() const;
 };
 
@@ -127,6 +132,7 @@ struct WalkEvalSummary {
   int map_mesh_dropped_overlap = 0;     ///< WalkMeshSummary::dropped_overlap.
   int map_mesh_dropped_free_space = 0;  ///< WalkMeshSummary::dropped_free_space.
   double map_mesh_cpu_s = 0.0;          ///< Thread CPU time of BuildWalkMesh.
+  TrackRefineSummary refinement;        ///< Its CPU is not in cpu_total_s.
 };
 
 struct WalkEvalResult {

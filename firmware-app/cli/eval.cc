@@ -61,6 +61,7 @@ struct EvalArgs {
   bool every_frame = false;
   bool resize_given = false;  ///< --sift-resize on the command line (the walk has its own default).
   int walk_window = WalkOptions{}.window;
+  bool walk_refine = WalkEvalOptions{}.refine;
   int match_keyframes = WalkOptions{}.match_keyframes;
   bool log_gate = false;
   double trigger_every_s = CaptureEvalOptions{}.trigger_every_s;
@@ -130,6 +131,7 @@ int RunWalkEval(const EvalArgs& args, const BouguetCamera& camera, const PairOpt
   options.walk.two_view.min_median_triangulation_angle_deg = args.min_parallax_deg;
   options.walk.seed = args.seed;
   options.walk.window = args.walk_window;
+  options.refine = args.walk_refine;
   options.walk.match_keyframes = args.match_keyframes;
   options.gate.parallax_deg = args.parallax_deg;
   options.gate.two_view = options.walk.two_view;
@@ -267,6 +269,10 @@ Runner AddEvalCommand(CLI::App& app) {
       ->needs(walk);
   cmd->add_option("--walk-window", args->walk_window,
                   "With --walk: keyframes the local bundle adjustment adjusts (two fixed)")
+      ->needs(walk);
+  cmd->add_option("--walk-refine", args->walk_refine,
+                  "With --walk: refine the map after the walk from tracks across its keyframes, "
+                  "as the daemon does (true / false)")
       ->needs(walk);
   cmd->add_option("--match-keyframes", args->match_keyframes,
                   "With --walk: newest keyframes a new one is matched against")
