@@ -273,10 +273,21 @@ struct WalkReport {
     int mesh_triangles = 0;
     int mesh_dropped_overlap = 0;
   } counts;
+  /// The map's refinement after the walk (map/walk_refine.h): tracks across the keyframes.
+  struct Refinement {
+    bool ran = false;
+    std::string skipped;  ///< Why not, when it did not run.
+    int pairs = 0;        ///< Pairs of keyframes matched,
+    int verified_pairs = 0;  ///< of them verified by a fundamental matrix.
+    int points = 0;          ///< Points of those tracks in the adjustment,
+    int observations = 0;    ///< and their observations.
+    double rms_px = 0.0;     ///< The adjustment's final RMS (with the walk's own points).
+  } refinement;
   struct Timings {
     double walk = 0.0;  ///< From walk start to stop.
     double registration_median = 0.0;
     double registration_total = 0.0;
+    double refinement = 0.0;  ///< After the walk, before the mesh.
     double mesh = 0.0;
     double preview = 0.0;
     double encode = 0.0;

@@ -320,8 +320,17 @@ std::string FromJson(const json& j, WalkReport* out) {
     Read(n, "mesh_vertices", &r.counts.mesh_vertices);
     Read(n, "mesh_triangles", &r.counts.mesh_triangles);
     Read(n, "mesh_dropped_overlap", &r.counts.mesh_dropped_overlap);
+    const json& f = Object(j, "refinement");
+    Read(f, "ran", &r.refinement.ran);
+    Read(f, "skipped", &r.refinement.skipped);
+    Read(f, "pairs", &r.refinement.pairs);
+    Read(f, "verified_pairs", &r.refinement.verified_pairs);
+    Read(f, "points", &r.refinement.points);
+    Read(f, "observations", &r.refinement.observations);
+    Read(f, "rms_px", &r.refinement.rms_px);
     const json& t = Object(j, "timings_s");
     Read(t, "walk", &r.timings_s.walk);
+    Read(t, "refinement", &r.timings_s.refinement);
     Read(t, "registration_median", &r.timings_s.registration_median);
     Read(t, "registration_total", &r.timings_s.registration_total);
     Read(t, "mesh", &r.timings_s.mesh);

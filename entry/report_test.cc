@@ -130,12 +130,17 @@ TEST(WalkReport, RoundTripsAndEachReaderRefusesTheOtherKind) {
   w.counts.keyframes = 1;
   w.counts.mesh_triangles = 8794;
   w.timings_s.registration_median = 0.141;
+  w.refinement.ran = true;
+  w.refinement.points = 3022;
+  w.timings_s.refinement = 6.2;
   const json j = ToJson(w);
   EXPECT_EQ(ReportKind(j), "walk");
   WalkReport back;
   ASSERT_EQ(FromJson(j, &back), "");
   EXPECT_EQ(FormatWalkReport(back), FormatWalkReport(w));
   EXPECT_EQ(back.keyframes.at(0).info.sequence, 77u);
+  EXPECT_TRUE(back.refinement.ran);
+  EXPECT_EQ(back.refinement.points, 3022);
   EXPECT_NEAR((back.keyframes.at(0).translation - k.translation).norm(), 0.0, 1e-12);
   // A pair's reader refuses a walk's report by name, and the walk's reader a pair's.
   EntryReport pair;

@@ -208,10 +208,19 @@ json ToJson(const WalkReport& r) {
                       {"mesh_vertices", n.mesh_vertices},
                       {"mesh_triangles", n.mesh_triangles},
                       {"mesh_dropped_overlap", n.mesh_dropped_overlap}};
+  const auto& f = r.refinement;
+  report["refinement"] = {{"ran", f.ran},
+                          {"skipped", f.skipped},
+                          {"pairs", f.pairs},
+                          {"verified_pairs", f.verified_pairs},
+                          {"points", f.points},
+                          {"observations", f.observations},
+                          {"rms_px", f.rms_px}};
   const auto& t = r.timings_s;
   report["timings_s"] = {{"walk", t.walk},
                          {"registration_median", t.registration_median},
                          {"registration_total", t.registration_total},
+                         {"refinement", t.refinement},
                          {"mesh", t.mesh},
                          {"preview", t.preview},
                          {"encode", t.encode}};

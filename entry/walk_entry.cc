@@ -307,7 +307,17 @@ EncodedEntry EncodeWalkEntry(const WalkEntryInput& in,
     r.timings_s.preview = SecondsSince(render_start);
   }
   r.timings_s.walk = in.walk_seconds;
-  r.timings_s.encode = SecondsSince(started) - r.timings_s.preview - r.timings_s.mesh;
+  const TrackRefineSummary& f = in.refinement;
+  r.refinement = {.ran = f.ran,
+                  .skipped = f.skipped,
+                  .pairs = f.pairs,
+                  .verified_pairs = f.verified_pairs,
+                  .points = f.points,
+                  .observations = f.observations,
+                  .rms_px = f.bundle.final_rms_px};
+  r.timings_s.refinement = in.refinement_seconds;
+  r.timings_s.encode = SecondsSince(started) - r.timings_s.preview - r.timings_s.mesh -
+                       r.timings_s.refinement;
   out.files.push_back({"report.json", FormatWalkReport(r)});
   return out;
 }

@@ -18,6 +18,7 @@
 #include "entry/report.h"
 #include "map/walk_map.h"
 #include "map/walk_mesh.h"
+#include "map/walk_refine.h"
 #include "scale/metric_scale.h"
 
 namespace mm {
@@ -35,6 +36,8 @@ struct WalkEntryInput {
   std::string stop_reason;
   uint64_t frames = 0;
   double walk_seconds = 0.0;
+  TrackRefineSummary refinement;  ///< The map's refinement after the walk.
+  double refinement_seconds = 0.0;
 };
 
 /// A keyframe image as the walk keeps it (BGR8 or GRAY8 in; JPEG, colour) and back (BGR8;

@@ -173,6 +173,7 @@ const std::vector<std::string>& DaemonConfigKeys() {
                                               "walk.timeout_s",
                                               "walk.mesh",
                                               "walk.max_mesh_parts",
+                                              "walk.refine",
                                               "scale.source",
                                               "scale.camera_height_m",
                                               "scale.camera_pitch_deg",
@@ -301,6 +302,7 @@ DaemonConfig ParseDaemonConfig(const std::string& text, const std::filesystem::p
       [](bool dense) { return dense ? "dense" : "sparse"; }, "a mesh mode (dense or sparse)",
       &c.walk.dense_mesh);
   r.GetNumber(walk, "walk", "max_mesh_parts", {1, 10000}, &c.walk.max_mesh_parts);
+  r.Get(walk, "walk", "refine", &c.walk.refine);
   if (const std::string problem = c.walk.gate.Check(); !problem.empty()) {
     r.Require(false, walk, "walk", "parallax_deg", problem.substr(problem.find(':') + 2));
   }

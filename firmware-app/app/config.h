@@ -63,6 +63,8 @@ struct DaemonConfig {
     double timeout_s = 900.0;  ///< [walk] timeout_s: the walk ends ("timeout").
     bool dense_mesh = true;    ///< [walk] mesh: dense (default) or sparse keyframe meshes.
     int max_mesh_parts = WalkMeshOptions{}.max_parts;  ///< [walk] max_mesh_parts
+    /// [walk] refine: the map refined once the walk ends, before its mesh (map/walk_refine.h).
+    bool refine = true;
   };
   Walk walk;
 

@@ -68,6 +68,7 @@ std::map<std::string, Value> CodeDefaults() {
       {"walk.timeout_s", d.walk.timeout_s},
       {"walk.mesh", std::string(d.walk.dense_mesh ? "dense" : "sparse")},
       {"walk.max_mesh_parts", int64_t{d.walk.max_mesh_parts}},
+      {"walk.refine", d.walk.refine},
       {"scale.source", std::string(ScaleSourceName(d.scale.source))},
       {"scale.camera_height_m", d.scale.camera_height_m},
       {"scale.camera_pitch_deg", d.scale.camera_pitch_deg},

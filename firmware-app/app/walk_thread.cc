@@ -9,6 +9,7 @@
 #include "app/frame_info.h"
 #include "entry/walk_entry.h"
 #include "map/walk_mesh.h"
+#include "map/walk_refine.h"
 #include "recon/features.h"
 #include "recon/pipeline.h"
 
@@ -269,16 +270,36 @@ WalkOutcome WalkThread::Finish() {
   const WalkMap& map = tracker_->map();
   out.keyframes = static_cast<int>(map.keyframes().size());
   out.segments = map.segments();
-  // The walk's SIFT is done: its pyramid workspace goes before the mesh and the preview
-  // allocate theirs (the peak of a long walk).
-  ReleaseSiftWorkspace();
   try {
     const int segment = LargestSegment(map);
+    const BouguetCamera& camera = undistorter_.output_camera();
+    TrackRefineSummary refinement;
+    const auto refine_start = std::chrono::steady_clock::now();
+    if (config_.walk.refine && segment >= 0) {
+      refinement = RefineSegment(
+          &tracker_->mutable_map(), segment, camera.K(),
+          [&](int k) { return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]); },
+          TrackRefineOptions{});
+      if (refinement.ran) {
+        spdlog::info(
+            "walk: refined: {} of {} pairs of keyframes verified, {} points, RMS {:.3f} px, "
+            "{:.2f} s CPU",
+            refinement.verified_pairs, refinement.pairs, refinement.points,
+            refinement.bundle.final_rms_px, refinement.cpu_s);
+      } else {
+        spdlog::info("walk: not refined: {}", refinement.skipped.empty()
+                                                   ? "its adjustment did not run"
+                                                   : refinement.skipped);
+      }
+    }
+    const double refinement_seconds = SecondsSince(refine_start);
+    // The walk's SIFT is done: its pyramid workspace goes before the mesh and the preview
+    // allocate theirs (the peak of a long walk).
+    ReleaseSiftWorkspace();
     WalkMeshOptions mesh_options;
     mesh_options.dense = config_.walk.dense_mesh;
     mesh_options.max_parts = config_.walk.max_mesh_parts;
     mesh_options.dense_mesh = config_.recon.dense_mesh;
-    const BouguetCamera& camera = undistorter_.output_camera();
     const WalkMesh mesh = BuildWalkMesh(
         map, segment, camera.K(),
         [&](int k) { return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]); }, mesh_options);
@@ -303,7 +324,9 @@ WalkOutcome WalkThread::Finish() {
                                        .scale = metric,
                                        .stop_reason = reason,
                                        .frames = status().frames,
-                                       .walk_seconds = SecondsSince(started_)},
+                                       .walk_seconds = SecondsSince(started_),
+                                       .refinement = refinement,
+                                       .refinement_seconds = refinement_seconds},
                         start, &report);
     out.registered = report.counts.registered;
     const SpoolCommit commit = spool_->Commit(entry.files, std::time(nullptr));
