@@ -947,27 +947,13 @@ void WalkMap::ApplySegmentBundle(WalkKeyframeSummary* summary) {
   }
   // Points: the adjusted positions; those made since follow their first observer,
   // X' = T_r'^-1 T_r X.
-  std::vector<bool> adjusted(points_.size(), false);
+  std::map<int, Eigen::Vector3d> adjusted;
   for (size_t j = 0; j < snapshot.points.size(); ++j) {
-    WalkPoint& p = points_[static_cast<size_t>(snapshot.points[j])];
-    if (!p.valid) continue;
-    p.position_in_segment = result.problem.points_in_world[j];
-    adjusted[static_cast<size_t>(snapshot.points[j])] = true;
-  }
-  for (size_t id = 0; id < points_.size(); ++id) {
-    WalkPoint& p = points_[id];
-    if (adjusted[id] || !p.valid || p.segment != snapshot.segment || p.observations.empty()) {
-      continue;
+    if (points_[static_cast<size_t>(snapshot.points[j])].valid) {
+      adjusted[snapshot.points[j]] = result.problem.points_in_world[j];
     }
-    const int first = p.observations.front().keyframe;
-    const auto it = corrected.find(first);
-    if (it == corrected.end()) continue;
-    p.position_in_segment =
-        it->second.inverse() *
-        (keyframes_[static_cast<size_t>(first)].cam_from_segment * p.position_in_segment);
   }
-  for (const auto& [i, pose] : corrected)
-    keyframes_[static_cast<size_t>(i)].cam_from_segment = pose;
+  MoveKeyframes(corrected, adjusted);
   ++global_bundles_;
 }
 

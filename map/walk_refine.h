@@ -26,11 +26,13 @@ namespace mm {
 class WalkMap;
 
 struct TrackRefineOptions {
-  /// The walk's own SIFT (docs/walk.md); at full size or with more features the tracks are
-  /// longer but the poses no better on the kitchen walk.
+  /// The walk's own SIFT (docs/walk.md), at most 1500 features a keyframe (the kitchen's have
+  /// 700-1400; a rendered corridor's 4000 cost 1.6x the CPU for the same poses); at full size
+  /// or with more features the tracks are longer but the poses no better on the kitchen walk.
   SiftOptions sift = [] {
     SiftOptions s;
     s.resize_factor = 0.75;
+    s.max_features = 1500;
     return s;
   }();
   MatchOptions match;
@@ -56,8 +58,9 @@ struct TrackRefineOptions {
     return b;
   }();
   /// Larger segments are not refined (RefineSegment): the pairs grow with the keyframes and
-  /// their CPU with them (6.8 s for 49 keyframes here, docs/walk.md).
-  int max_keyframes = 150;
+  /// their CPU with them (6.3 s for the kitchen's 49 keyframes, 40 s for 105 round a
+  /// corridor and a half on this machine; docs/walk.md).
+  int max_keyframes = 100;
   [[nodiscard]] std::string Check() const;
 };
 
