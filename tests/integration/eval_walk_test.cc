@@ -262,11 +262,13 @@ TEST(EvalWalk, RedKitchenHandHeldWalkIsOneMap) {
   // Measured (docs/walk.md; this seed is the default, over RANSAC seeds 0-5 in brackets): ATE
   // 0.88 % of the path; scale drift 9.6 % (7.6-10.3; 13.0 % without the refinement), 3.3 %
   // read from the depth maps (1.7-4.8; 5.2 % without); map points 3.8 % from the depth maps
-  // (4.5 % without), the map mesh 6.2 % (5.3-7.0).
+  // (3.7-5.1; 4.5 % without), the map mesh 6.2 % (5.3-7.0).
   EXPECT_LE(w["ate_rmse_m"].get<double>(), 0.0125 * path);
-  EXPECT_LE(w["scale_drift"].get<double>(), 0.115);
-  EXPECT_LE(w["depth_scale_drift"].get<double>(), 0.05);
-  EXPECT_LE(w["point_depth_rel_err"]["median"].get<double>(), 0.05);
+  // The bounds hold over seeds 0-5 (the same frames through another machine's SIMD may take
+  // another seed's path); the scale drift's catches the walk without the refinement on this one.
+  EXPECT_LE(w["scale_drift"].get<double>(), 0.12);
+  EXPECT_LE(w["depth_scale_drift"].get<double>(), 0.06);
+  EXPECT_LE(w["point_depth_rel_err"]["median"].get<double>(), 0.06);
   EXPECT_LE(w["map_depth_rel_err"]["median"].get<double>(), 0.08);
   fs::remove_all(dir);
 }
