@@ -294,8 +294,10 @@ WalkOutcome WalkThread::Finish() {
     }
     const double refinement_seconds = SecondsSince(refine_start);
     // The walk's SIFT is done: its pyramid workspace goes before the mesh and the preview
-    // allocate theirs (the peak of a long walk).
+    // allocate theirs (the peak of a long walk), and so do the pages the refinement's
+    // adjustment freed (glibc keeps them resident otherwise, as after a loop's).
     ReleaseSiftWorkspace();
+    if (refinement.ran) malloc_trim(0);
     WalkMeshOptions mesh_options;
     mesh_options.dense = config_.walk.dense_mesh;
     mesh_options.max_parts = config_.walk.max_mesh_parts;
