@@ -87,7 +87,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   std::optional<Undistorter> undistorter;
   std::optional<WalkMap> every_frame_map;  // every_frame: each frame straight into the map.
   std::optional<WalkTracker> tracker;      // Else: the walk's keyframe policy.
-  const WalkMap* map = nullptr;
+  WalkMap* map = nullptr;
   Eigen::Matrix3d k_matrix = Eigen::Matrix3d::Identity();  // Of the undistorted frames.
   const double cpu_start = ThreadCpuSeconds();
   std::vector<double> frame_cpu;  // Frames that did not become keyframes.
@@ -137,7 +137,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
     }
     if (!tracker) {
       tracker.emplace(k, WalkTrackerOptions{.walk = options.walk, .gate = options.gate});
-      map = &tracker->map();
+      map = &tracker->mutable_map();
     }
     const double cpu0 = ThreadCpuSeconds();
     const WalkFrameStep step = tracker->AddFrame(image, frames[i].timestamp_s);
@@ -157,17 +157,18 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
   s.keyframes = static_cast<int>(result.keyframes.size());
   s.segments = map ? map->segments() : 0;
   s.cpu_per_frame_s_median = frame_cpu.empty() ? 0.0 : MedianOf(frame_cpu);
+  // A keyframe's image as the walk saw it (cv::imread flags: gray or colour), undistorted.
+  const auto keyframe_image = [&](int index, int imread_flags) {
+    const auto frame = static_cast<size_t>(result.keyframes[static_cast<size_t>(index)].frame);
+    cv::Mat image = cv::imread(frames[frame].path.string(), imread_flags);
+    if (undistorter && !image.empty()) image = undistorter->Apply(image);
+    return image;
+  };
   if (map && options.refine) {
     // The walk's map, refined as the daemon refines it once a walk ends.
     s.refinement = RefineSegment(
-        const_cast<WalkMap*>(map), LargestSegment(*map), k_matrix,
-        [&](int index) {
-          const size_t frame = static_cast<size_t>(result.keyframes[static_cast<size_t>(index)].frame);
-          cv::Mat image = cv::imread(frames[frame].path.string(), cv::IMREAD_GRAYSCALE);
-          if (undistorter && !image.empty()) image = undistorter->Apply(image);
-          return image;
-        },
-        options.refinement);
+        map, LargestSegment(*map), k_matrix,
+        [&](int index) { return keyframe_image(index, cv::IMREAD_GRAYSCALE); }, options.refinement);
   }
   if (map) {
     s.relocalizations = map->relocalizations();
@@ -302,15 +303,7 @@ WalkEvalResult EvaluateWalk(const std::filesystem::path& dataset, const BouguetC
       const double mesh_start = ThreadCpuSeconds();
       const WalkMesh mesh = BuildWalkMesh(
           *map, s.evaluated_segment, k_matrix,
-          [&](int index) {
-            cv::Mat image = cv::imread(
-                frames[static_cast<size_t>(result.keyframes[static_cast<size_t>(index)].frame)]
-                    .path.string(),
-                cv::IMREAD_COLOR);
-            if (undistorter && !image.empty()) image = undistorter->Apply(image);
-            return image;
-          },
-          options.mesh);
+          [&](int index) { return keyframe_image(index, cv::IMREAD_COLOR); }, options.mesh);
       s.map_mesh_parts = mesh.summary.parts;
       s.map_mesh_triangles = mesh.summary.triangles;
       s.map_mesh_dropped_overlap = mesh.summary.dropped_overlap;
@@ -425,8 +418,8 @@ std::string FormatWalkSummary(const WalkEvalSummary& s) {
                   "  refined after the walk: %d of %d pairs of keyframes verified, %d tracks, "
                   "%d points with %d observations; RMS %.3f px; %.2f s CPU\n",
                   s.refinement.verified_pairs, s.refinement.pairs, s.refinement.tracks,
-                  s.refinement.points, s.refinement.observations,
-                  s.refinement.bundle.final_rms_px, s.refinement.cpu_s);
+                  s.refinement.points, s.refinement.observations, s.refinement.bundle.final_rms_px,
+                  s.refinement.cpu_s);
     out += text;
   } else if (!s.refinement.skipped.empty()) {
     out += "  not refined after the walk: " + s.refinement.skipped + "\n";

@@ -885,33 +885,11 @@ bool WalkMap::StartSegmentBundle(int keyframe) {
   const std::vector<int> segment = SegmentKeyframes();
   if (segment.size() < 3) return true;  // Nothing to adjust.
   if (static_cast<int>(segment.size()) > options_.global_bundle_max_keyframes) return false;
-  LocalBundleProblem problem;
-  problem.k = K_;
   SegmentBundleSnapshot snapshot;
   snapshot.segment = segment_;
   snapshot.loop_keyframe = keyframe;
   snapshot.keyframes = segment;
-  std::map<int, int> pose_of_keyframe;
-  for (size_t i = 0; i < segment.size(); ++i) {
-    pose_of_keyframe[segment[i]] = static_cast<int>(i);
-    problem.cam_from_world.push_back(keyframes_[static_cast<size_t>(segment[i])].cam_from_segment);
-    problem.pose_fixed.push_back(i < 2);
-  }
-  for (size_t id = 0; id < points_.size(); ++id) {
-    const WalkPoint& p = points_[id];
-    if (!p.valid || p.segment != segment_) continue;
-    const int index = static_cast<int>(problem.points_in_world.size());
-    bool any = false;
-    for (const WalkPoint::Observation& o : p.observations) {
-      const auto it = pose_of_keyframe.find(o.keyframe);
-      if (it == pose_of_keyframe.end()) continue;
-      problem.observations.push_back({it->second, index, Pixel(o.keyframe, o.keypoint)});
-      any = true;
-    }
-    if (!any) continue;
-    problem.points_in_world.push_back(p.position_in_segment);
-    snapshot.points.push_back(static_cast<int>(id));
-  }
+  LocalBundleProblem problem = BundleProblemOf(segment, segment_, 1, &snapshot.points);
   if (static_cast<int>(problem.observations.size()) > options_.global_bundle_max_observations) {
     return false;
   }
@@ -955,6 +933,36 @@ void WalkMap::ApplySegmentBundle(WalkKeyframeSummary* summary) {
   }
   MoveKeyframes(corrected, adjusted);
   ++global_bundles_;
+}
+
+LocalBundleProblem WalkMap::BundleProblemOf(const std::vector<int>& keyframes, int segment,
+                                            int min_observations, std::vector<int>* points) const {
+  LocalBundleProblem problem;
+  problem.k = K_;
+  std::map<int, int> pose_of_keyframe;
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    pose_of_keyframe[keyframes[i]] = static_cast<int>(i);
+    problem.cam_from_world.push_back(
+        keyframes_[static_cast<size_t>(keyframes[i])].cam_from_segment);
+    problem.pose_fixed.push_back(i < 2);
+  }
+  std::vector<LocalBundleProblem::Observation> seen;
+  for (size_t id = 0; id < points_.size(); ++id) {
+    const WalkPoint& p = points_[id];
+    if (!p.valid || p.segment != segment) continue;
+    const int index = static_cast<int>(problem.points_in_world.size());
+    seen.clear();
+    for (const WalkPoint::Observation& o : p.observations) {
+      const auto it = pose_of_keyframe.find(o.keyframe);
+      if (it != pose_of_keyframe.end())
+        seen.push_back({it->second, index, Pixel(o.keyframe, o.keypoint)});
+    }
+    if (static_cast<int>(seen.size()) < min_observations || seen.empty()) continue;
+    problem.observations.insert(problem.observations.end(), seen.begin(), seen.end());
+    problem.points_in_world.push_back(p.position_in_segment);
+    if (points) points->push_back(static_cast<int>(id));
+  }
+  return problem;
 }
 
 void WalkMap::MoveKeyframes(const std::map<int, Eigen::Isometry3d>& cam_from_segment,

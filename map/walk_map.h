@@ -21,8 +21,8 @@
 // Thread-safety: one instance per thread; deterministic for the same input and seed.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <opencv2/core.hpp>
 #include <map>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -222,6 +222,13 @@ class WalkMap {
   /// first observer moved follows it, X' = T_r'^-1 T_r X.
   void MoveKeyframes(const std::map<int, Eigen::Isometry3d>& cam_from_segment,
                      const std::map<int, Eigen::Vector3d>& position_in_segment = {});
+  /// The bundle adjustment of `keyframes` (registered keyframes of `segment`, oldest first;
+  /// the first two fixed: gauge and scale): their poses, and each valid point of the segment
+  /// that at least `min_observations` of them see, with those observations. `points`
+  /// (optional) receives the map index of each of the problem's points.
+  [[nodiscard]] LocalBundleProblem BundleProblemOf(const std::vector<int>& keyframes, int segment,
+                                                   int min_observations,
+                                                   std::vector<int>* points) const;
 
  private:
   // Indices of the current segment's registered keyframes, oldest first.

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "base/clock.h"
+#include "base/stats.h"
 #include "map/walk_map.h"
 
 namespace mm {
@@ -36,8 +37,6 @@ std::string TrackRefineOptions::Check() const {
 }
 
 namespace {
-
-using Observation = LocalBundleProblem::Observation;
 
 int Root(std::vector<int>& parent, int x) {
   while (parent[static_cast<size_t>(x)] != x) {
@@ -68,16 +67,16 @@ bool SeesLookAt(const Eigen::Matrix3d& k, const Eigen::Isometry3d& a_from_world,
       b_from_world * (a_from_world.inverse() * Eigen::Vector3d(0, 0, depth_a));
   if (in_b.z() <= 0) return false;
   const Eigen::Vector2d pixel = (k * in_b).hnormalized();
-  return pixel.x() >= 0 && pixel.y() >= 0 && pixel.x() < size_b.width &&
-         pixel.y() < size_b.height;
+  return pixel.x() >= 0 && pixel.y() >= 0 && pixel.x() < size_b.width && pixel.y() < size_b.height;
 }
 
 // The point of a track from the widest of its pairs (up to options.triangulation_tries) that
 // the most of its keyframes agree with, one observation per keyframe (the nearest); false when
 // no pair gives two.
-bool TriangulateTrack(const Eigen::Matrix3d& k, const std::vector<Eigen::Isometry3d>& cam_from_world,
-                      const Track& track, const TrackRefineOptions& options,
-                      Eigen::Vector3d* point_in_world, Track* inlying) {
+bool TriangulateTrack(const Eigen::Matrix3d& k,
+                      const std::vector<Eigen::Isometry3d>& cam_from_world, const Track& track,
+                      const TrackRefineOptions& options, Eigen::Vector3d* point_in_world,
+                      Track* inlying) {
   const Eigen::Matrix3d k_inv = k.inverse();
   std::vector<Eigen::Vector3d> normalized(track.size()), ray_in_world(track.size());
   for (size_t i = 0; i < track.size(); ++i) {
@@ -263,7 +262,8 @@ TrackRefineSummary RefineSegment(WalkMap* map, int segment, const Eigen::Matrix3
   std::vector<int> keyframes;
   for (size_t i = 0; i < map->keyframes().size(); ++i) {
     const WalkKeyframe& keyframe = map->keyframes()[i];
-    if (keyframe.registered && keyframe.segment == segment) keyframes.push_back(static_cast<int>(i));
+    if (keyframe.registered && keyframe.segment == segment)
+      keyframes.push_back(static_cast<int>(i));
   }
   TrackRefineSummary skipped;
   skipped.keyframes = static_cast<int>(keyframes.size());
@@ -276,8 +276,11 @@ TrackRefineSummary RefineSegment(WalkMap* map, int segment, const Eigen::Matrix3
     skipped.skipped = "fewer than 3 keyframes";
     return skipped;
   }
+  // The segment's own points (seen twice or more) and observations, kept in the adjustment.
+  std::vector<int> point_ids;
+  const LocalBundleProblem own = map->BundleProblemOf(keyframes, segment, 2, &point_ids);
+  const std::vector<Eigen::Isometry3d>& cam_from_segment = own.cam_from_world;
   std::vector<cv::Mat> grays;
-  std::vector<Eigen::Isometry3d> cam_from_segment;
   std::vector<double> scene_depth;  // The median depth of each keyframe's points.
   for (int i : keyframes) {
     const WalkKeyframe& keyframe = map->keyframes()[static_cast<size_t>(i)];
@@ -293,36 +296,8 @@ TrackRefineSummary RefineSegment(WalkMap* map, int segment, const Eigen::Matrix3
       const WalkPoint& p = map->points()[static_cast<size_t>(point)];
       if (p.valid) depths.push_back((keyframe.cam_from_segment * p.position_in_segment).z());
     }
-    double depth = 0.0;
-    if (!depths.empty()) {
-      const auto middle = depths.begin() + static_cast<long>(depths.size() / 2);
-      std::nth_element(depths.begin(), middle, depths.end());
-      depth = *middle;
-    }
     grays.push_back(std::move(image));
-    cam_from_segment.push_back(keyframe.cam_from_segment);
-    scene_depth.push_back(depth);
-  }
-  // The segment's own points and observations, kept in the adjustment.
-  LocalBundleProblem own;
-  std::map<int, int> pose_of;
-  for (size_t j = 0; j < keyframes.size(); ++j) pose_of[keyframes[j]] = static_cast<int>(j);
-  std::vector<int> point_ids;
-  for (size_t id = 0; id < map->points().size(); ++id) {
-    const WalkPoint& p = map->points()[id];
-    if (!p.valid || p.segment != segment) continue;
-    std::vector<Observation> seen;
-    for (const WalkPoint::Observation& o : p.observations) {
-      const auto it = pose_of.find(o.keyframe);
-      if (it == pose_of.end()) continue;
-      const WalkKeyframe& keyframe = map->keyframes()[static_cast<size_t>(o.keyframe)];
-      seen.push_back({it->second, static_cast<int>(point_ids.size()),
-                      keyframe.keypoint_pixels[static_cast<size_t>(o.keypoint)].cast<double>()});
-    }
-    if (seen.size() < 2) continue;
-    point_ids.push_back(static_cast<int>(id));
-    own.points_in_world.push_back(p.position_in_segment);
-    own.observations.insert(own.observations.end(), seen.begin(), seen.end());
+    scene_depth.push_back(MedianOf(std::move(depths)));
   }
   TrackRefineSummary built;
   const std::vector<Track> tracks =

@@ -46,11 +46,11 @@ struct TrackRefineOptions {
   /// scene depth along its axis) is in the other's image and their axes are within this
   /// angle; keyframes next to each other always are.
   double max_axis_angle_deg = 60.0;
-  int min_pair_inliers = 15;         ///< Fewer verified matches: the pair adds no track.
-  double min_angle_deg = 1.5;        ///< A track's widest pair must see it under this at least.
-  int triangulation_tries = 5;       ///< Widest pairs tried per track.
-  int max_track_length = 40;         ///< Longer: a chain of wrong matches, not a point.
-  double max_reprojection_px = 4.0;  ///< Under the walk's poses, before the adjustment.
+  int min_pair_inliers = 15;           ///< Fewer verified matches: the pair adds no track.
+  double min_angle_deg = 1.5;          ///< A track's widest pair must see it under this at least.
+  int triangulation_tries = 5;         ///< Widest pairs tried per track.
+  int max_track_length = 40;           ///< Longer: a chain of wrong matches, not a point.
+  double max_reprojection_px = 4.0;    ///< Under the walk's poses, before the adjustment.
   double final_reprojection_px = 2.0;  ///< After it; then adjusted once more.
   LocalBundleOptions bundle = [] {
     LocalBundleOptions b;
@@ -78,7 +78,7 @@ struct TrackRefineSummary {
 };
 
 struct TrackRefineResult {
-  std::vector<Eigen::Isometry3d> cam_from_world;  ///< Per keyframe, refined.
+  std::vector<Eigen::Isometry3d> cam_from_world;      ///< Per keyframe, refined.
   std::vector<Eigen::Vector3d> kept_points_in_world;  ///< The `kept` points, adjusted.
   TrackRefineSummary summary;
 };

@@ -64,7 +64,7 @@ std::vector<Eigen::Isometry3d> ScaleDrifted(const std::vector<Eigen::Isometry3d>
 }
 
 double MaxCentreErrorM(const std::vector<Eigen::Isometry3d>& a,
-                      const std::vector<Eigen::Isometry3d>& b) {
+                       const std::vector<Eigen::Isometry3d>& b) {
   double worst = 0.0;
   for (size_t i = 0; i < a.size(); ++i) {
     worst = std::max(worst, (a[i].inverse().translation() - b[i].inverse().translation()).norm());
@@ -103,7 +103,9 @@ TEST(RefinePosesWithTracks, AConflictingMatchInATrackIsLeftOutAndKeptPointsFollo
   kept.points_in_world.push_back(point_in_world + Eigen::Vector3d(0.0, 0.0, 0.3));
   for (int i = 0; i < 2; ++i) {
     kept.observations.push_back(
-        {i, 0, (scene.k * (scene.cam_from_world[static_cast<size_t>(i)] * point_in_world)).hnormalized()});
+        {i, 0,
+         (scene.k * (scene.cam_from_world[static_cast<size_t>(i)] * point_in_world))
+             .hnormalized()});
   }
   const TrackRefineResult r = RefinePosesWithTracks(
       scene.k, scene.tracks, ScaleDrifted(scene.cam_from_world), TrackRefineOptions{}, &kept);

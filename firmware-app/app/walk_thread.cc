@@ -273,13 +273,14 @@ WalkOutcome WalkThread::Finish() {
   try {
     const int segment = LargestSegment(map);
     const BouguetCamera& camera = undistorter_.output_camera();
+    const KeyframeImageFn keyframe_image = [&](int k) {
+      return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]);
+    };
     TrackRefineSummary refinement;
     const auto refine_start = std::chrono::steady_clock::now();
     if (config_.walk.refine && segment >= 0) {
-      refinement = RefineSegment(
-          &tracker_->mutable_map(), segment, camera.K(),
-          [&](int k) { return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]); },
-          TrackRefineOptions{});
+      refinement = RefineSegment(&tracker_->mutable_map(), segment, camera.K(), keyframe_image,
+                                 TrackRefineOptions{});
       if (refinement.ran) {
         spdlog::info(
             "walk: refined: {} of {} pairs of keyframes verified, {} points, RMS {:.3f} px, "
@@ -288,8 +289,8 @@ WalkOutcome WalkThread::Finish() {
             refinement.bundle.final_rms_px, refinement.cpu_s);
       } else {
         spdlog::info("walk: not refined: {}", refinement.skipped.empty()
-                                                   ? "its adjustment did not run"
-                                                   : refinement.skipped);
+                                                  ? "its adjustment did not run"
+                                                  : refinement.skipped);
       }
     }
     const double refinement_seconds = SecondsSince(refine_start);
@@ -302,9 +303,7 @@ WalkOutcome WalkThread::Finish() {
     mesh_options.dense = config_.walk.dense_mesh;
     mesh_options.max_parts = config_.walk.max_mesh_parts;
     mesh_options.dense_mesh = config_.recon.dense_mesh;
-    const WalkMesh mesh = BuildWalkMesh(
-        map, segment, camera.K(),
-        [&](int k) { return DecodeKeyframeJpeg(jpegs_[static_cast<size_t>(k)]); }, mesh_options);
+    const WalkMesh mesh = BuildWalkMesh(map, segment, camera.K(), keyframe_image, mesh_options);
     ScaleEstimate metric;
     if (config_.scale.source != ScaleSource::kNone) {
       metric = EstimateWalkScale(map, segment, mesh, infos_, config_, odometry_);
